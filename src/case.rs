@@ -1,0 +1,400 @@
+//! Case files (TOML): the typed, validated description of a run.
+//!
+//! Unknown keys are refused (`deny_unknown_fields`); every error names the file,
+//! the key or line, and the value.
+
+use crate::contact::hertz::HertzDamping;
+use crate::contact::hooke::HookeExplicit;
+use crate::contact::{Convention, EndOfContact, TangentialHistory};
+use crate::dim::Dimension;
+use crate::error::TalusError;
+use crate::integrate::IntegratorKind;
+use crate::material::Material;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    pub simulation: SimulationSection,
+    pub contact: ContactSection,
+    #[serde(rename = "material")]
+    pub materials: Vec<Material>,
+    pub particles: ParticlesSection,
+    #[serde(rename = "wall", default)]
+    pub walls: Vec<WallSection>,
+    #[serde(rename = "phase")]
+    pub phases: Vec<PhaseSection>,
+    #[serde(default)]
+    pub output: OutputSection,
+    #[serde(default)]
+    pub analysis: Option<AnalysisSection>,
+    /// Folder of the case file; relative paths in the case are taken from here.
+    #[serde(skip)]
+    pub dir: PathBuf,
+    /// Path of the case file, for messages.
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationSection {
+    #[serde(default)]
+    pub dimension: Dimension,
+    /// Time step (s). Give this or `timestep_rayleigh_fraction`.
+    pub timestep: Option<f64>,
+    /// Time step as a fraction of the Rayleigh time of the smallest particle.
+    pub timestep_rayleigh_fraction: Option<f64>,
+    /// Accept a step above 30% of the Rayleigh time.
+    #[serde(default)]
+    pub force_timestep: bool,
+    #[serde(default)]
+    pub gravity: [f64; 3],
+    #[serde(default)]
+    pub integrator: IntegratorKind,
+    /// Verlet skin (m); default 0.2 of the smallest radius.
+    pub skin: Option<f64>,
+    /// Box particles must stay in.
+    pub domain: DomainSection,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainSection {
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelName {
+    Hooke,
+    Hertz,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSection {
+    pub model: ModelName,
+    /// The reference code whose conventions fill every option not given.
+    #[serde(default = "default_convention")]
+    pub convention: Convention,
+    /// Hertz damping mapping from e.
+    pub damping: Option<HertzDamping>,
+    pub end_of_contact: Option<EndOfContact>,
+    pub tangential: Option<TangentialHistory>,
+    /// hooke: derive kn etc. as LIGGGHTS does at this velocity (m/s).
+    pub characteristic_velocity: Option<f64>,
+    /// hooke: explicit absolute coefficients.
+    pub stiffness: Option<HookeExplicit>,
+}
+
+fn default_convention() -> Convention {
+    Convention::Liggghts
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesSection {
+    pub material: String,
+    /// Largest initial overlap accepted, as a fraction of the smaller radius.
+    #[serde(default = "default_overlap_tol")]
+    pub overlap_tolerance: f64,
+    /// CSV file `id,x,y,z,radius` with optional `vx,vy,vz` (and `wx,wy,wz`).
+    pub csv: Option<PathBuf>,
+    pub lattice: Option<LatticeSection>,
+    pub list: Option<Vec<ParticleEntry>>,
+}
+
+fn default_overlap_tol() -> f64 {
+    1e-3
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LatticeSection {
+    pub count: usize,
+    pub radius_min: f64,
+    pub radius_max: f64,
+    /// Lower corner (x, y, z) of the cloud.
+    pub lo: [f64; 3],
+    /// Upper x and y of the cloud (it grows upward in z).
+    pub hi_xy: [f64; 2],
+    /// Lattice spacing in units of radius_max.
+    #[serde(default = "default_spacing")]
+    pub spacing: f64,
+    pub seed: u64,
+}
+
+fn default_spacing() -> f64 {
+    2.2
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleEntry {
+    pub id: u64,
+    pub position: [f64; 3],
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    #[serde(default)]
+    pub spin: [f64; 3],
+    pub radius: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSection {
+    pub name: String,
+    pub material: String,
+    pub plane: Option<PlaneSection>,
+    pub stl: Option<PathBuf>,
+    #[serde(default)]
+    pub velocity: [f64; 3],
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneSection {
+    pub point: [f64; 3],
+    pub normal: [f64; 3],
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseSection {
+    pub name: String,
+    /// Longest the phase runs (s).
+    pub duration: f64,
+    /// End early once the kinetic energy is below this fraction of the potential
+    /// energy given up since the start of the run, plus `settle_extra` seconds.
+    pub kinetic_energy_fraction: Option<f64>,
+    #[serde(default)]
+    pub settle_extra: f64,
+    /// Walls removed when the phase ends.
+    #[serde(default)]
+    pub remove_walls_at_end: Vec<String>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSection {
+    /// Probe interval (s).
+    #[serde(default = "default_interval")]
+    pub interval: f64,
+    /// Report the mass of particles whose centre is below this z (m).
+    pub mass_below_z: Option<f64>,
+    /// Particle ids whose velocity and spin are recorded.
+    #[serde(default)]
+    pub track: Vec<u64>,
+    /// HDF5 snapshot interval (s); none if absent.
+    pub snapshot_interval: Option<f64>,
+    /// Checkpoint interval (s); a checkpoint is always written at the end.
+    pub checkpoint_interval: Option<f64>,
+}
+
+impl Default for OutputSection {
+    fn default() -> Self {
+        OutputSection {
+            interval: default_interval(),
+            mass_below_z: None,
+            track: vec![],
+            snapshot_interval: None,
+            checkpoint_interval: None,
+        }
+    }
+}
+
+fn default_interval() -> f64 {
+    0.01
+}
+
+/// What figures the run computes for `summary.json`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "lowercase")]
+pub enum AnalysisSection {
+    /// A single collision of `particle` with the wall `wall` or the particle `partner`.
+    Collision {
+        particle: u64,
+        wall: Option<String>,
+        partner: Option<u64>,
+    },
+    /// Hopper fill and discharge.
+    Hopper {
+        hopper_walls: Vec<String>,
+        gate: String,
+        fill_phase: String,
+        discharge_phase: String,
+        /// Averaging window at the end of the fill (s).
+        #[serde(default = "default_window")]
+        fill_window: f64,
+    },
+}
+
+fn default_window() -> f64 {
+    0.1
+}
+
+impl Case {
+    /// Read and parse a case file. Syntax errors and unknown keys name the file and line.
+    pub fn load(path: &Path) -> Result<Case, TalusError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| TalusError::io(format!("cannot read case file {}", path.display()), e))?;
+        Case::parse(&text, path)
+    }
+
+    /// Parse case text; `path` names it in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Case, TalusError> {
+        let mut case: Case = toml::from_str(text).map_err(|e| {
+            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
+            let at = line.map(|l| format!(", line {l}")).unwrap_or_default();
+            TalusError::Input(format!("{}{at}: {}", path.display(), e.message()))
+        })?;
+        case.path = path.to_path_buf();
+        case.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        case.validate()?;
+        Ok(case)
+    }
+
+    fn err(&self, key: &str, value: impl std::fmt::Display, why: &str) -> TalusError {
+        TalusError::Input(format!("{}: {key} = {value}: {why}", self.path.display()))
+    }
+
+    /// Resolve a path given in the case relative to the case file.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() { p.to_path_buf() } else { self.dir.join(p) }
+    }
+
+    pub fn material_index(&self, name: &str, key: &str) -> Result<u16, TalusError> {
+        self.materials
+            .iter()
+            .position(|m| m.name == name)
+            .map(|i| i as u16)
+            .ok_or_else(|| self.err(key, format!("\"{name}\""), "no material of that name"))
+    }
+
+    fn validate(&self) -> Result<(), TalusError> {
+        let ctx = self.path.display().to_string();
+        if self.materials.is_empty() {
+            return Err(self.err("material", "[]", "at least one [[material]] is needed"));
+        }
+        for m in &self.materials {
+            m.validate(&ctx)?;
+        }
+        let s = &self.simulation;
+        match (s.timestep, s.timestep_rayleigh_fraction) {
+            (Some(dt), None) if !(dt.is_finite() && dt > 0.0) => {
+                return Err(self.err("simulation.timestep", dt, "the time step must be a positive number of seconds"));
+            }
+            (None, Some(f)) if !(f.is_finite() && f > 0.0) => {
+                return Err(self.err("simulation.timestep_rayleigh_fraction", f, "must be positive"));
+            }
+            (Some(_), Some(_)) | (None, None) => {
+                return Err(self.err(
+                    "simulation.timestep",
+                    format!("{:?}", s.timestep),
+                    "give exactly one of simulation.timestep and simulation.timestep_rayleigh_fraction",
+                ));
+            }
+            _ => {}
+        }
+        if let Some(sk) = s.skin {
+            if !(sk.is_finite() && sk > 0.0) {
+                return Err(self.err("simulation.skin", sk, "the skin must be a positive length"));
+            }
+        }
+        for k in 0..3 {
+            if !(s.domain.lo[k] < s.domain.hi[k]) {
+                return Err(self.err(
+                    "simulation.domain",
+                    format!("lo {:?} hi {:?}", s.domain.lo, s.domain.hi),
+                    "every lo must be below its hi",
+                ));
+            }
+        }
+        let c = &self.contact;
+        match c.model {
+            ModelName::Hooke => match (&c.stiffness, c.characteristic_velocity) {
+                (Some(h), None) => {
+                    for (k, v) in [("kn", h.kn), ("kt", h.kt), ("gamma_n", h.gamma_n), ("gamma_t", h.gamma_t)] {
+                        if !(v.is_finite() && v >= 0.0) || (k == "kn" && v == 0.0) {
+                            return Err(self.err(&format!("contact.stiffness.{k}"), v, "must be a finite positive number"));
+                        }
+                    }
+                }
+                (None, Some(v)) if v > 0.0 && v.is_finite() => {}
+                (None, Some(v)) => {
+                    return Err(self.err("contact.characteristic_velocity", v, "must be a positive speed (m/s)"));
+                }
+                _ => {
+                    return Err(self.err(
+                        "contact.model",
+                        "\"hooke\"",
+                        "give exactly one of contact.stiffness (kn, kt, gamma_n, gamma_t) and contact.characteristic_velocity",
+                    ));
+                }
+            },
+            ModelName::Hertz => {
+                if c.stiffness.is_some() || c.characteristic_velocity.is_some() {
+                    return Err(self.err(
+                        "contact.model",
+                        "\"hertz\"",
+                        "contact.stiffness and contact.characteristic_velocity belong to the hooke model",
+                    ));
+                }
+            }
+        }
+        let ps = &self.particles;
+        self.material_index(&ps.material, "particles.material")?;
+        let sources = ps.csv.is_some() as u8 + ps.lattice.is_some() as u8 + ps.list.is_some() as u8;
+        if sources != 1 {
+            return Err(self.err("particles", sources, "give exactly one of particles.csv, particles.lattice, particles.list"));
+        }
+        if let Some(l) = &ps.lattice {
+            if !(l.radius_min > 0.0 && l.radius_max >= l.radius_min) {
+                return Err(self.err(
+                    "particles.lattice.radius_min",
+                    l.radius_min,
+                    "radii must be positive with radius_min <= radius_max",
+                ));
+            }
+            if l.spacing < 2.0 {
+                return Err(self.err("particles.lattice.spacing", l.spacing, "spacing below 2 radius_max would overlap"));
+            }
+        }
+        let mut names = std::collections::HashSet::new();
+        for (i, w) in self.walls.iter().enumerate() {
+            if !names.insert(w.name.clone()) {
+                return Err(self.err(&format!("wall[{i}].name"), &w.name, "wall names must be unique"));
+            }
+            self.material_index(&w.material, &format!("wall.{}.material", w.name))?;
+            if w.plane.is_some() == w.stl.is_some() {
+                return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane and stl"));
+            }
+            if let Some(p) = &w.plane {
+                let n = (p.normal[0].powi(2) + p.normal[1].powi(2) + p.normal[2].powi(2)).sqrt();
+                if !(n > 0.0 && n.is_finite()) {
+                    return Err(self.err(&format!("wall.{}.plane.normal", w.name), format!("{:?}", p.normal), "the normal must be a non-zero vector"));
+                }
+            }
+        }
+        if self.phases.is_empty() {
+            return Err(self.err("phase", "[]", "at least one [[phase]] is needed"));
+        }
+        for ph in &self.phases {
+            if !(ph.duration.is_finite() && ph.duration > 0.0) {
+                return Err(self.err(&format!("phase.{}.duration", ph.name), ph.duration, "must be a positive time (s)"));
+            }
+            for w in &ph.remove_walls_at_end {
+                if !self.walls.iter().any(|x| &x.name == w) {
+                    return Err(self.err(&format!("phase.{}.remove_walls_at_end", ph.name), format!("\"{w}\""), "no wall of that name"));
+                }
+            }
+        }
+        if !(self.output.interval > 0.0) {
+            return Err(self.err("output.interval", self.output.interval, "must be a positive time (s)"));
+        }
+        Ok(())
+    }
+}

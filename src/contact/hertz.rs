@@ -1,0 +1,73 @@
+//! `hertz`: Hertz-Mindlin with tangential history, restitution-based damping and
+//! a Coulomb cap (the drag paper's model).
+//!
+//! Elastic parts (Hertz 1882; Mindlin 1949, no-slip):
+//! F_n,el = 4/3 Y* sqrt(R*) delta^(3/2),  k_t = 8 G* sqrt(R* delta).
+//!
+//! Damping from restitution e, by name:
+//! - `liggghts` (LIGGGHTS 3.8 `normal_model_hertz.h`, after Tsuji et al. 1992):
+//!   S_n = 2 Y* sqrt(R* delta), S_t = 8 G* sqrt(R* delta),
+//!   beta = ln e / sqrt(ln^2 e + pi^2),
+//!   gamma_n = -2 sqrt(5/6) beta sqrt(S_n m*),  gamma_t = -2 sqrt(5/6) beta sqrt(S_t m*).
+//! - `yade` (YADE 2023 `Ip2_FrictMat_FrictMat_MindlinPhys` with `en`/`es`): see
+//!   [`HertzDamping::Yade`].
+
+use super::{NormalCoeffs, NormalLaw, PairInertia};
+use crate::material::PairMaterial;
+use serde::{Deserialize, Serialize};
+
+/// How restitution is mapped to a damping coefficient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HertzDamping {
+    Liggghts,
+    Yade,
+}
+
+/// beta = ln e / sqrt(ln^2 e + pi^2) (<= 0), the LIGGGHTS damping parameter.
+#[inline]
+pub fn beta(e: f64) -> f64 {
+    if e >= 1.0 {
+        return 0.0;
+    }
+    let l = e.ln();
+    l / (l * l + std::f64::consts::PI.powi(2)).sqrt()
+}
+
+/// Hertz-Mindlin normal part with the chosen damping mapping. Holds the
+/// per-material-pair damping parameters precomputed so the kernel takes no logs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hertz {
+    pub damping: HertzDamping,
+}
+
+const SQRT_5_6: f64 = 0.912_870_929_175_276_8;
+
+impl NormalLaw for Hertz {
+    #[inline(always)]
+    fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs {
+        let sqrt_rd = (pi.r_eff * overlap).sqrt();
+        let f_elastic = 4.0 / 3.0 * pm.y_eff * sqrt_rd * overlap;
+        let s_n = 2.0 * pm.y_eff * sqrt_rd;
+        let kt = 8.0 * pm.g_eff * sqrt_rd;
+        let (gamma_n, gamma_t) = match self.damping {
+            HertzDamping::Liggghts => {
+                let b = -2.0 * SQRT_5_6 * pm.beta;
+                (b * (s_n * pi.m_eff).sqrt(), b * (kt * pi.m_eff).sqrt())
+            }
+            HertzDamping::Yade => {
+                // critical damping 2 sqrt(m* k) times the pair's damping ratio;
+                // k_n here is the tangent stiffness dF/d delta = S_n
+                let cn = 2.0 * pm.yade_ratio_n * (s_n * pi.m_eff).sqrt();
+                let ct = 2.0 * pm.yade_ratio_t * (kt * pi.m_eff).sqrt();
+                (cn, ct)
+            }
+        };
+        NormalCoeffs { f_elastic, gamma_n, kt, gamma_t }
+    }
+}
+
+/// YADE 2023's damping ratio for restitution e (fraction of critical damping).
+pub fn yade_damping_ratio(e: f64) -> f64 {
+    -beta(e)
+}

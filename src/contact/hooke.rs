@@ -1,0 +1,82 @@
+//! `hooke`: linear spring-dashpot, normal and tangential, with a Coulomb slider
+//! (the hopper paper's model).
+//!
+//! F_n = k_n delta - gamma_n v_n,  F_t = -k_t s - gamma_t v_t, |F_t| <= mu |F_n|.
+//!
+//! Stiffness and damping are either given explicitly (absolute values, N/m and
+//! kg/s) or derived from E, nu, e and a characteristic velocity V exactly as
+//! LIGGGHTS 3.8 `model hooke` does (`normal_model_hooke.h`):
+//!
+//! k_n = 16/15 sqrt(R*) Y* (15 m* V^2 / (16 sqrt(R*) Y*))^(1/5),
+//! gamma_n = sqrt(4 m* k_n / (1 + (pi / ln e)^2)),  k_t = k_n,  gamma_t = gamma_n.
+//!
+//! k_n is the linear spring whose peak overlap at impact speed V equals Hertz's.
+//! Undamped, a contact lasts pi sqrt(m*/k_n); with the tensile end-of-contact
+//! convention the restitution is exactly e.
+
+use super::{NormalCoeffs, NormalLaw, PairInertia};
+use crate::material::PairMaterial;
+use serde::{Deserialize, Serialize};
+
+/// Explicit linear spring-dashpot coefficients (absolute).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HookeExplicit {
+    /// Normal stiffness (N/m).
+    pub kn: f64,
+    /// Tangential stiffness (N/m).
+    pub kt: f64,
+    /// Normal damping coefficient (kg/s).
+    pub gamma_n: f64,
+    /// Tangential damping coefficient (kg/s).
+    pub gamma_t: f64,
+}
+
+/// The linear law, with its coefficients either explicit or derived per pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Hooke {
+    Explicit(HookeExplicit),
+    /// Derived as LIGGGHTS does, at this characteristic velocity (m/s).
+    Derived { characteristic_velocity: f64 },
+}
+
+/// LIGGGHTS's damping for a linear spring: gamma = sqrt(4 m* k / (1 + (pi/ln e)^2)).
+/// This is 2 zeta sqrt(m* k) with zeta = -ln e / sqrt(ln^2 e + pi^2): the
+/// dashpot that gives restitution e when the force may go tensile.
+#[inline]
+pub fn damping_for_restitution(m_eff: f64, k: f64, e: f64) -> f64 {
+    if e >= 1.0 {
+        return 0.0;
+    }
+    let l = e.ln();
+    (4.0 * m_eff * k / (1.0 + (std::f64::consts::PI / l).powi(2))).sqrt()
+}
+
+/// LIGGGHTS's `model hooke` stiffness at characteristic velocity `v`.
+#[inline]
+pub fn liggghts_kn(y_eff: f64, r_eff: f64, m_eff: f64, v: f64) -> f64 {
+    let s = r_eff.sqrt();
+    16.0 / 15.0 * s * y_eff * (15.0 * m_eff * v * v / (16.0 * s * y_eff)).powf(0.2)
+}
+
+impl Hooke {
+    /// The four coefficients for one pair.
+    pub fn coefficients(&self, pm: &PairMaterial, pi: PairInertia) -> HookeExplicit {
+        match *self {
+            Hooke::Explicit(h) => h,
+            Hooke::Derived { characteristic_velocity } => {
+                let kn = liggghts_kn(pm.y_eff, pi.r_eff, pi.m_eff, characteristic_velocity);
+                let g = damping_for_restitution(pi.m_eff, kn, pm.restitution);
+                HookeExplicit { kn, kt: kn, gamma_n: g, gamma_t: g }
+            }
+        }
+    }
+}
+
+impl NormalLaw for Hooke {
+    #[inline(always)]
+    fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs {
+        let h = self.coefficients(pm, pi);
+        NormalCoeffs { f_elastic: h.kn * overlap, gamma_n: h.gamma_n, kt: h.kt, gamma_t: h.gamma_t }
+    }
+}

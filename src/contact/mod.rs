@@ -1,0 +1,225 @@
+//! Contact laws: pure functions from contact geometry, relative motion, mixed pair
+//! properties and the law's own history to a force.
+//!
+//! Every geometry (sphere-sphere, sphere-plane, sphere-triangle, later discs,
+//! ellipses and clump sub-contacts) produces a [`ContactGeom`]; every law takes
+//! one, so every law works on walls for free (YADE's Ig2 / Ip2 / Law2 split).
+//!
+//! Sign conventions: `n` is the unit normal pointing from body j (or the wall)
+//! to body i; `overlap` > 0 in contact; `v_rel` is the velocity of i's material
+//! point at the contact minus j's; the returned force acts on i, and -force on j.
+//! The torque on each body is `-arm * n x force` with its own arm.
+
+pub mod hertz;
+pub mod hooke;
+
+use crate::dim::Vec3;
+use crate::material::PairMaterial;
+use serde::{Deserialize, Serialize};
+
+/// Geometry of one contact.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactGeom {
+    /// Unit normal from j to i.
+    pub n: Vec3,
+    /// Overlap delta (m), positive in contact.
+    pub overlap: f64,
+    /// Distance from i's centre to the contact point (m).
+    pub arm_i: f64,
+    /// Distance from j's centre to the contact point (m); 0 for a wall.
+    pub arm_j: f64,
+}
+
+/// Effective radius and mass of a pair: R* = R_i R_j / (R_i + R_j), m* likewise.
+/// A wall has infinite radius and mass: R* = R_i, m* = m_i.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairInertia {
+    pub r_eff: f64,
+    pub m_eff: f64,
+}
+
+impl PairInertia {
+    #[inline(always)]
+    pub fn particles(ri: f64, rj: f64, mi: f64, mj: f64) -> Self {
+        PairInertia { r_eff: ri * rj / (ri + rj), m_eff: mi * mj / (mi + mj) }
+    }
+    #[inline(always)]
+    pub fn wall(ri: f64, mi: f64) -> Self {
+        PairInertia { r_eff: ri, m_eff: mi }
+    }
+}
+
+/// What a law's normal part yields for the current overlap: the elastic normal
+/// force and the four coefficients that the shared normal-damping and tangential
+/// code needs. Passed by value to the tangential stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalCoeffs {
+    /// Elastic normal force (N), >= 0.
+    pub f_elastic: f64,
+    /// Normal damping coefficient (kg/s).
+    pub gamma_n: f64,
+    /// Tangential stiffness at this overlap (N/m).
+    pub kt: f64,
+    /// Tangential damping coefficient (kg/s).
+    pub gamma_t: f64,
+}
+
+/// The normal part of a contact law. Implemented by zero-sized or small `Copy`
+/// types so the force sweep is monomorphised once per law (static dispatch).
+pub trait NormalLaw: Copy + Send + Sync {
+    fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs;
+}
+
+/// How the normal force behaves at the end of a contact.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EndOfContact {
+    /// The damped normal force may go slightly tensile as the bodies separate
+    /// (LIGGGHTS `normal_model_hooke.h` / `normal_model_hertz.h` with the default
+    /// `limitForce off`). Returns e_out = e_in for the linear dashpot.
+    Tensile,
+    /// The normal force is clipped at zero (YADE `Law2_ScGeom_ViscElPhys_Basic`,
+    /// `Law2_ScGeom_MindlinPhys_Mindlin`). A clipped linear dashpot returns a larger
+    /// e_out (Schwager and Poeschel 2007).
+    Clip,
+}
+
+/// How tangential history is kept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TangentialHistory {
+    /// LIGGGHTS `tangential history`: the history is the total shear displacement,
+    /// projected onto the current tangent plane each step; the elastic force is the
+    /// displacement times the *current* stiffness.
+    Total,
+    /// YADE: the history is the elastic shear force, rotated onto the current
+    /// tangent plane and incremented by -k_t v_t dt with the current stiffness.
+    Incremental,
+}
+
+/// Options of the tangential stage, shared by every law.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TangentialOptions {
+    pub history: TangentialHistory,
+}
+
+/// Result of one contact evaluation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactForce {
+    /// Total force on i (N).
+    pub force: Vec3,
+    /// Signed normal force on i along n (N); negative only with `EndOfContact::Tensile`.
+    pub normal: f64,
+}
+
+/// Evaluate a contact: the normal law gives coefficients, the shared code adds
+/// normal damping, the end-of-contact convention, and the tangential spring,
+/// dashpot and Coulomb slider. `hist` is the law's history (m for `Total`, N for
+/// `Incremental`), zero at first touch. `dt` is the time step (s).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate<L: NormalLaw>(
+    law: L,
+    end: EndOfContact,
+    tang: TangentialOptions,
+    pm: &PairMaterial,
+    pi: PairInertia,
+    g: &ContactGeom,
+    v_rel: Vec3,
+    hist: &mut Vec3,
+    dt: f64,
+) -> ContactForce {
+    let c = law.coeffs(pm, pi, g.overlap);
+    let vn = v_rel.dot(&g.n); // > 0 separating
+    let mut f_n = c.f_elastic - c.gamma_n * vn;
+    if end == EndOfContact::Clip && f_n < 0.0 {
+        f_n = 0.0;
+    }
+    let v_t = v_rel - g.n * vn;
+    let f_t = tangential(c, tang.history, pm.friction, f_n, g.n, v_t, hist, dt);
+    ContactForce { force: g.n * f_n + f_t, normal: f_n }
+}
+
+/// Tangential spring-dashpot with a Coulomb slider. The cap is mu |F_n| on the
+/// elastic part; while sliding the dashpot is off, so the tangential force never
+/// exceeds the cap (LIGGGHTS `tangential_model_history.h`).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn tangential(
+    c: NormalCoeffs,
+    mode: TangentialHistory,
+    mu: f64,
+    f_n: f64,
+    n: Vec3,
+    v_t: Vec3,
+    hist: &mut Vec3,
+    dt: f64,
+) -> Vec3 {
+    let cap = mu * f_n.abs();
+    // rotate the stored history onto the current tangent plane, keeping its length
+    let h = *hist;
+    let h_norm2 = h.norm_squared();
+    let mut h_t = h - n * n.dot(&h);
+    let ht2 = h_t.norm_squared();
+    if ht2 > 0.0 && ht2 != h_norm2 {
+        h_t *= (h_norm2 / ht2).sqrt();
+    }
+    match mode {
+        TangentialHistory::Total => {
+            let s = h_t + v_t * dt;
+            let f_el = -c.kt * s;
+            let fe = f_el.norm();
+            if fe > cap {
+                if fe > 0.0 {
+                    let f = f_el * (cap / fe);
+                    *hist = if c.kt > 0.0 { -f / c.kt } else { Vec3::zeros() };
+                    f
+                } else {
+                    *hist = Vec3::zeros();
+                    Vec3::zeros()
+                }
+            } else {
+                *hist = s;
+                f_el - c.gamma_t * v_t
+            }
+        }
+        TangentialHistory::Incremental => {
+            let f_el = h_t - c.kt * dt * v_t;
+            let fe = f_el.norm();
+            if fe > cap {
+                let f = if fe > 0.0 { f_el * (cap / fe) } else { Vec3::zeros() };
+                *hist = f;
+                f
+            } else {
+                *hist = f_el;
+                f_el - c.gamma_t * v_t
+            }
+        }
+    }
+}
+
+/// Velocity of i's material point at the contact relative to j's.
+/// `w_i`, `w_j` are angular velocities; the contact point is at -arm_i n from i
+/// and +arm_j n from j.
+#[inline(always)]
+pub fn relative_velocity(g: &ContactGeom, v_i: Vec3, v_j: Vec3, w_i: Vec3, w_j: Vec3) -> Vec3 {
+    (v_i - v_j) - (w_i * g.arm_i + w_j * g.arm_j).cross(&g.n)
+}
+
+/// Torques on i and j from the contact force on i.
+#[inline(always)]
+pub fn torques(g: &ContactGeom, f: Vec3) -> (Vec3, Vec3) {
+    let nxf = g.n.cross(&f);
+    (-nxf * g.arm_i, -nxf * g.arm_j)
+}
+
+/// The reference-code convention used to fill unspecified options.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Convention {
+    Liggghts,
+    Yade,
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,119 @@
+//! The force sweep: gravity, then particle pairs in list order, then walls in
+//! wall and feature order. The law is chosen once per sweep (`ContactModel`)
+//! and the kernel is monomorphised for it.
+
+use crate::contact::hertz::Hertz;
+use crate::contact::hooke::Hooke;
+use crate::contact::{
+    evaluate, relative_velocity, torques, ContactGeom, EndOfContact, NormalLaw, PairInertia, TangentialOptions,
+};
+use crate::dim::Vec3;
+use crate::material::PairTable;
+use crate::neighbor::NeighborList;
+use crate::particles::Particles;
+use crate::walls::Wall;
+
+/// The contact law of a run, fixed at set-up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ContactModel {
+    Hooke(Hooke),
+    Hertz(Hertz),
+}
+
+/// Everything the sweep needs besides state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepSettings {
+    pub model: ContactModel,
+    pub end: EndOfContact,
+    pub tang: TangentialOptions,
+    pub gravity: Vec3,
+    pub dt: f64,
+}
+
+/// Compute forces and torques on all particles and the load on every wall.
+/// Returns the number of touching contacts.
+pub fn compute_forces(
+    s: &SweepSettings,
+    p: &mut Particles,
+    walls: &mut [Wall],
+    nl: &mut NeighborList,
+    table: &PairTable,
+) -> usize {
+    match s.model {
+        ContactModel::Hooke(l) => sweep(l, s, p, walls, nl, table),
+        ContactModel::Hertz(l) => sweep(l, s, p, walls, nl, table),
+    }
+}
+
+fn sweep<L: NormalLaw>(
+    law: L,
+    s: &SweepSettings,
+    p: &mut Particles,
+    walls: &mut [Wall],
+    nl: &mut NeighborList,
+    table: &PairTable,
+) -> usize {
+    let n = p.len();
+    for i in 0..n {
+        p.force[i] = s.gravity * p.mass[i];
+        p.torque[i] = Vec3::zeros();
+    }
+    let mut contacts = 0usize;
+    for (k, &(a, b)) in nl.pairs.iter().enumerate() {
+        let (a, b) = (a as usize, b as usize);
+        let d = p.pos[a] - p.pos[b];
+        let rsum = p.radius[a] + p.radius[b];
+        let dist2 = d.norm_squared();
+        let hist = &mut nl.pair_hist[k];
+        if dist2 >= rsum * rsum {
+            *hist = Vec3::zeros();
+            continue;
+        }
+        contacts += 1;
+        let dist = dist2.sqrt();
+        let nrm = d / dist;
+        let overlap = rsum - dist;
+        let g = ContactGeom { n: nrm, overlap, arm_i: p.radius[a] - 0.5 * overlap, arm_j: p.radius[b] - 0.5 * overlap };
+        let pi = PairInertia::particles(p.radius[a], p.radius[b], p.mass[a], p.mass[b]);
+        let pm = table.get(p.material[a], p.material[b]);
+        let v = relative_velocity(&g, p.vel[a], p.vel[b], p.omega[a], p.omega[b]);
+        let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, hist, s.dt);
+        let (ta, tb) = torques(&g, c.force);
+        p.force[a] += c.force;
+        p.force[b] -= c.force;
+        p.torque[a] += ta;
+        p.torque[b] += tb;
+    }
+    for w in walls.iter_mut() {
+        w.force = Vec3::zeros();
+        w.torque = Vec3::zeros();
+    }
+    for i in 0..n {
+        let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
+        for k in lo..hi {
+            let (wi, feat) = nl.wall_feat[k];
+            let wall = &mut walls[wi as usize];
+            let hist = &mut nl.wall_hist[k];
+            if !wall.active {
+                *hist = Vec3::zeros();
+                continue;
+            }
+            let Some(hit) = wall.contact(feat, &p.pos[i], p.radius[i]) else {
+                *hist = Vec3::zeros();
+                continue;
+            };
+            contacts += 1;
+            let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - hit.overlap, arm_j: 0.0 };
+            let pi = PairInertia::wall(p.radius[i], p.mass[i]);
+            let pm = table.get(p.material[i], wall.material);
+            let v = relative_velocity(&g, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros());
+            let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, hist, s.dt);
+            let (ti, _) = torques(&g, c.force);
+            p.force[i] += c.force;
+            p.torque[i] += ti;
+            wall.force -= c.force;
+            wall.torque -= hit.point.cross(&c.force);
+        }
+    }
+    contacts
+}

@@ -1,0 +1,20 @@
+//! talus: a discrete element method engine for granular flow, checked case by
+//! case against LIGGGHTS and YADE. See ARCHITECTURE.md for the layout.
+
+pub mod analysis;
+pub mod case;
+pub mod contact;
+pub mod dim;
+pub mod error;
+pub mod forces;
+pub mod generate;
+pub mod integrate;
+pub mod material;
+pub mod neighbor;
+pub mod output;
+pub mod particles;
+pub mod run;
+pub mod sim;
+pub mod walls;
+
+pub use error::TalusError;

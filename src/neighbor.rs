@@ -1,0 +1,208 @@
+//! Neighbour search: a cell grid feeds Verlet lists with a skin. The lists are
+//! rebuilt when any particle has moved more than half the skin since the last
+//! build. Cost per step is linear in N (each particle looks at 27 cells).
+//!
+//! The pair list is ordered by (id_a, id_b) with id_a < id_b. Scatter-adding pair
+//! forces in that order sums every particle's contact forces in order of its
+//! partners' global ids, whatever the local storage order or the rank: the
+//! foundation of rank-count-invariant results.
+
+use crate::dim::Vec3;
+use crate::error::TalusError;
+use crate::particles::Particles;
+use crate::walls::Wall;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// Axis-aligned box that particles must stay inside.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Domain {
+    pub lo: Vec3,
+    pub hi: Vec3,
+}
+
+/// Candidate particle pairs and particle-wall features with their contact history.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct NeighborList {
+    pub skin: f64,
+    /// Local index pairs (a, b) with id[a] < id[b], sorted by (id[a], id[b]).
+    pub pairs: Vec<(u32, u32)>,
+    pub pair_hist: Vec<Vec3>,
+    /// Particle -> range in `wall_feat`.
+    pub wall_start: Vec<u32>,
+    /// (wall index, feature index).
+    pub wall_feat: Vec<(u16, u32)>,
+    pub wall_hist: Vec<Vec3>,
+    /// Positions at the last build.
+    pub x_ref: Vec<Vec3>,
+    pub builds: u64,
+}
+
+impl NeighborList {
+    pub fn new(skin: f64) -> Self {
+        NeighborList { skin, ..Default::default() }
+    }
+
+    /// True when some particle moved more than half the skin since the last build.
+    /// Also checks that every particle is finite and inside the domain.
+    pub fn needs_rebuild(&self, p: &Particles, domain: &Domain) -> Result<bool, TalusError> {
+        if self.x_ref.len() != p.len() {
+            return Ok(true);
+        }
+        let lim = 0.25 * self.skin * self.skin;
+        let mut need = false;
+        for i in 0..p.len() {
+            let x = &p.pos[i];
+            if (x - self.x_ref[i]).norm_squared() > lim {
+                need = true;
+            }
+            if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
+                || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
+            {
+                return Err(particle_error(p, i, domain));
+            }
+        }
+        Ok(need)
+    }
+
+    /// Rebuild the lists, carrying contact history over by global ids.
+    pub fn build(&mut self, p: &Particles, walls: &[Wall], domain: &Domain) -> Result<(), TalusError> {
+        let n = p.len();
+        // old history keyed by global ids
+        let mut old_pair: HashMap<(u64, u64), Vec3> = HashMap::new();
+        for (k, &(a, b)) in self.pairs.iter().enumerate() {
+            if self.pair_hist[k] != Vec3::zeros() {
+                old_pair.insert((p.id[a as usize], p.id[b as usize]), self.pair_hist[k]);
+            }
+        }
+        let mut old_wall: HashMap<(u64, u16, u32), Vec3> = HashMap::new();
+        for i in 0..self.wall_start.len().saturating_sub(1).min(n) {
+            for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
+                if self.wall_hist[k] != Vec3::zeros() {
+                    let (w, f) = self.wall_feat[k];
+                    old_wall.insert((p.id[i], w, f), self.wall_hist[k]);
+                }
+            }
+        }
+
+        let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
+        let cell = (2.0 * rmax + self.skin).max(1e-12);
+        let ext = domain.hi - domain.lo;
+        let dims = [0, 1, 2].map(|k| ((ext[k] / cell).floor() as usize).clamp(1, 1 << 20));
+        let ncell = dims[0] * dims[1] * dims[2];
+        let cell_of = |x: &Vec3| -> usize {
+            let mut c = [0usize; 3];
+            for k in 0..3 {
+                let f = ((x[k] - domain.lo[k]) / ext[k] * dims[k] as f64).floor();
+                c[k] = (f.max(0.0) as usize).min(dims[k] - 1);
+            }
+            (c[2] * dims[1] + c[1]) * dims[0] + c[0]
+        };
+        // counting sort of particles into cells
+        let mut start = vec![0u32; ncell + 1];
+        let cells: Vec<usize> = p.pos.iter().map(cell_of).collect();
+        for &c in &cells {
+            start[c + 1] += 1;
+        }
+        for c in 0..ncell {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut members = vec![0u32; n];
+        for (i, &c) in cells.iter().enumerate() {
+            members[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        // order of particles by id
+        let mut by_id: Vec<u32> = (0..n as u32).collect();
+        by_id.sort_by_key(|&i| p.id[i as usize]);
+
+        self.pairs.clear();
+        self.pair_hist.clear();
+        let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
+        for &a in &by_id {
+            let a = a as usize;
+            let xa = p.pos[a];
+            let ida = p.id[a];
+            let c = cells[a];
+            let (cx, cy, cz) = (c % dims[0], (c / dims[0]) % dims[1], c / (dims[0] * dims[1]));
+            row.clear();
+            for dz in -1i64..=1 {
+                let z = cz as i64 + dz;
+                if z < 0 || z >= dims[2] as i64 {
+                    continue;
+                }
+                for dy in -1i64..=1 {
+                    let y = cy as i64 + dy;
+                    if y < 0 || y >= dims[1] as i64 {
+                        continue;
+                    }
+                    for dx in -1i64..=1 {
+                        let x = cx as i64 + dx;
+                        if x < 0 || x >= dims[0] as i64 {
+                            continue;
+                        }
+                        let cc = ((z as usize * dims[1]) + y as usize) * dims[0] + x as usize;
+                        for &b in &members[start[cc] as usize..start[cc + 1] as usize] {
+                            let bi = b as usize;
+                            if p.id[bi] <= ida {
+                                continue;
+                            }
+                            let cut = p.radius[a] + p.radius[bi] + self.skin;
+                            if (p.pos[bi] - xa).norm_squared() < cut * cut {
+                                row.push((p.id[bi], b));
+                            }
+                        }
+                    }
+                }
+            }
+            row.sort_unstable();
+            for &(idb, b) in &row {
+                self.pairs.push((a as u32, b));
+                self.pair_hist.push(old_pair.get(&(ida, idb)).copied().unwrap_or_else(Vec3::zeros));
+            }
+        }
+
+        // wall candidates
+        self.wall_start.clear();
+        self.wall_feat.clear();
+        self.wall_hist.clear();
+        let mut feats = Vec::new();
+        for i in 0..n {
+            self.wall_start.push(self.wall_feat.len() as u32);
+            for (w, wall) in walls.iter().enumerate() {
+                if !wall.active {
+                    continue;
+                }
+                feats.clear();
+                wall.candidates(&p.pos[i], p.radius[i], self.skin, &mut feats);
+                for &f in &feats {
+                    self.wall_feat.push((w as u16, f));
+                    self.wall_hist.push(old_wall.get(&(p.id[i], w as u16, f)).copied().unwrap_or_else(Vec3::zeros));
+                }
+            }
+        }
+        self.wall_start.push(self.wall_feat.len() as u32);
+        self.x_ref.clear();
+        self.x_ref.extend_from_slice(&p.pos);
+        self.builds += 1;
+        Ok(())
+    }
+}
+
+/// The error for a particle that is no longer finite or left the domain.
+pub fn particle_error(p: &Particles, i: usize, domain: &Domain) -> TalusError {
+    let x = p.pos[i];
+    let what = if x.iter().all(|c| c.is_finite()) && p.vel[i].iter().all(|c| c.is_finite()) {
+        format!(
+            "left the domain [{:.4}, {:.4}] x [{:.4}, {:.4}] x [{:.4}, {:.4}]",
+            domain.lo.x, domain.hi.x, domain.lo.y, domain.hi.y, domain.lo.z, domain.hi.z
+        )
+    } else {
+        "has a non-finite position or velocity (NaN or infinity)".to_string()
+    };
+    TalusError::Run(format!(
+        "particle id {} (radius {:.4e} m) {what}: position ({:.6e}, {:.6e}, {:.6e}), velocity ({:.6e}, {:.6e}, {:.6e})",
+        p.id[i], p.radius[i], x.x, x.y, x.z, p.vel[i].x, p.vel[i].y, p.vel[i].z
+    ))
+}

@@ -1,0 +1,376 @@
+//! Triangle-mesh walls read from STL (ASCII or binary, through `stl_io`).
+//!
+//! At load time the mesh builds its adjacency and gives every edge and every
+//! vertex one owner (the lowest-indexed triangle that has it), as LIGGGHTS does.
+//! A sphere whose closest point on a triangle is an edge or a vertex gets that
+//! contact only from the owner, and only if the feature really is the closest
+//! point of the whole mesh around it: for an edge, the sphere centre must not
+//! project into any neighbouring triangle across that edge; for a vertex, the
+//! centre must lie in the vertex's Voronoi region, (c - v).(u - v) <= 0 for every
+//! edge (v, u). So a sphere on a shared edge of two coplanar triangles gets one
+//! contact, a sphere on a face near a convex edge gets only the face contact,
+//! and a sphere in a concave corner gets one contact from each face.
+//! Meshes are two-sided.
+
+use crate::dim::Vec3;
+use crate::error::TalusError;
+use crate::walls::WallHit;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Where on a triangle the closest point to a query lies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    Face,
+    /// Edge k runs from vertex k to vertex (k + 1) % 3.
+    Edge(usize),
+    Vertex(usize),
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Mesh {
+    pub vertices: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Unit face normals (orientation as in the file, but contact is two-sided).
+    pub normals: Vec<Vec3>,
+    /// Per triangle and edge: does this triangle own the edge?
+    edge_owned: Vec<[bool; 3]>,
+    /// Per triangle and vertex: does this triangle own the vertex?
+    vertex_owned: Vec<[bool; 3]>,
+    /// Per triangle and edge: range in `edge_inward` of the other triangles' inward in-plane unit vectors.
+    edge_nb: Vec<[(u32, u32); 3]>,
+    edge_inward: Vec<Vec3>,
+    /// Per vertex: range in `vertex_dirs` of unit vectors along its edges.
+    vertex_nb: Vec<(u32, u32)>,
+    vertex_dirs: Vec<Vec3>,
+}
+
+/// Closest point on triangle (a, b, c) to p, with its region (Ericson,
+/// Real-Time Collision Detection, 5.1.5). The face region is the open interior.
+#[inline(always)]
+pub fn closest_point(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> (Vec3, Region) {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(&ap);
+    let d2 = ac.dot(&ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (*a, Region::Vertex(0));
+    }
+    let bp = p - b;
+    let d3 = ab.dot(&bp);
+    let d4 = ac.dot(&bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return (*b, Region::Vertex(1));
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (a + ab * v, Region::Edge(0));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(&cp);
+    let d6 = ac.dot(&cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return (*c, Region::Vertex(2));
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (a + ac * w, Region::Edge(2));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * w, Region::Edge(1));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let v = vb * denom;
+    let w = vc * denom;
+    (a + ab * v + ac * w, Region::Face)
+}
+
+impl Mesh {
+    /// Read an STL file (ASCII or binary). Errors name the file and the facet.
+    pub fn from_stl(path: &Path) -> Result<Mesh, TalusError> {
+        let name = path.display().to_string();
+        let mut f = std::fs::File::open(path).map_err(|e| TalusError::io(format!("cannot open STL file {name}"), e))?;
+        let im = stl_io::read_stl(&mut f)
+            .map_err(|e| TalusError::Input(format!("{name}: not a readable STL file (ASCII or binary): {e}")))?;
+        if im.faces.is_empty() {
+            return Err(TalusError::Input(format!("{name}: the STL file has no facets")));
+        }
+        let vertices: Vec<Vec3> =
+            im.vertices.iter().map(|v| Vec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+        let triangles: Vec<[u32; 3]> =
+            im.faces.iter().map(|f| [f.vertices[0] as u32, f.vertices[1] as u32, f.vertices[2] as u32]).collect();
+        Mesh::new(vertices, triangles).map_err(|e| TalusError::Input(format!("{name}: {e}")))
+    }
+
+    /// Build a mesh from vertices and triangles; checks for non-finite vertices and degenerate facets.
+    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh, String> {
+        for (i, v) in vertices.iter().enumerate() {
+            if !(v.x.is_finite() && v.y.is_finite() && v.z.is_finite()) {
+                return Err(format!("vertex {i} is not finite: {v:?}"));
+            }
+        }
+        let mut lo = Vec3::repeat(f64::INFINITY);
+        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
+        for v in &vertices {
+            lo = lo.inf(v);
+            hi = hi.sup(v);
+        }
+        let scale = (hi - lo).norm().max(f64::MIN_POSITIVE);
+        let mut normals = Vec::with_capacity(triangles.len());
+        for (t, tri) in triangles.iter().enumerate() {
+            let [a, b, c] = tri.map(|k| vertices[k as usize]);
+            let nrm = (b - a).cross(&(c - a));
+            let area2 = nrm.norm();
+            if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || area2 <= 1e-12 * scale * scale {
+                return Err(format!(
+                    "facet {t} is degenerate (zero area): vertices ({:.6e}, {:.6e}, {:.6e}), ({:.6e}, {:.6e}, {:.6e}), ({:.6e}, {:.6e}, {:.6e})",
+                    a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
+                ));
+            }
+            normals.push(nrm / area2);
+        }
+        // edges: sorted vertex pair -> triangles (in index order)
+        let mut edges: HashMap<(u32, u32), Vec<(u32, usize)>> = HashMap::new();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                edges.entry((a.min(b), a.max(b))).or_default().push((t as u32, k));
+            }
+        }
+        let nt = triangles.len();
+        let mut edge_owned = vec![[false; 3]; nt];
+        let mut edge_nb = vec![[(0u32, 0u32); 3]; nt];
+        let mut edge_inward = Vec::new();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let sharers = &edges[&(a.min(b), a.max(b))];
+                edge_owned[t][k] = sharers[0].0 as usize == t;
+                let start = edge_inward.len() as u32;
+                let (pa, pb) = (vertices[a as usize], vertices[b as usize]);
+                let e = (pb - pa).normalize();
+                for &(u, ku) in sharers {
+                    if u as usize == t {
+                        continue;
+                    }
+                    let w = vertices[triangles[u as usize][(ku + 2) % 3] as usize];
+                    let m = (w - pa) - e * e.dot(&(w - pa));
+                    edge_inward.push(m.normalize());
+                }
+                edge_nb[t][k] = (start, edge_inward.len() as u32);
+            }
+        }
+        // vertices: owner and incident edge directions
+        let nv = vertices.len();
+        let mut first = vec![u32::MAX; nv];
+        let mut dirs: Vec<Vec<Vec3>> = vec![Vec::new(); nv];
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let v = tri[k] as usize;
+                if first[v] == u32::MAX {
+                    first[v] = t as u32;
+                }
+            }
+        }
+        for &(a, b) in edges.keys() {
+            let (pa, pb) = (vertices[a as usize], vertices[b as usize]);
+            let e = (pb - pa).normalize();
+            dirs[a as usize].push(e);
+            dirs[b as usize].push(-e);
+        }
+        let mut vertex_nb = Vec::with_capacity(nv);
+        let mut vertex_dirs = Vec::new();
+        for d in dirs.iter_mut() {
+            // a fixed order keeps the test independent of hash order
+            d.sort_by(|x, y| x.as_slice().partial_cmp(y.as_slice()).unwrap());
+            let s = vertex_dirs.len() as u32;
+            vertex_dirs.extend_from_slice(d);
+            vertex_nb.push((s, vertex_dirs.len() as u32));
+        }
+        let vertex_owned =
+            triangles.iter().enumerate().map(|(t, tri)| tri.map(|v| first[v as usize] as usize == t)).collect();
+        Ok(Mesh { vertices, triangles, normals, edge_owned, vertex_owned, edge_nb, edge_inward, vertex_nb, vertex_dirs })
+    }
+
+    pub fn translate(&mut self, d: Vec3) {
+        for v in &mut self.vertices {
+            *v += d;
+        }
+    }
+
+    #[inline(always)]
+    fn corners(&self, t: usize) -> [Vec3; 3] {
+        self.triangles[t].map(|k| self.vertices[k as usize])
+    }
+
+    /// Triangles whose distance from c is below `reach`.
+    pub fn candidates(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
+        for t in 0..self.triangles.len() {
+            let [a, b, d] = self.corners(t);
+            let lo = a.inf(&b).inf(&d);
+            let hi = a.sup(&b).sup(&d);
+            if (0..3).any(|k| c[k] < lo[k] - reach || c[k] > hi[k] + reach) {
+                continue;
+            }
+            let (p, _) = closest_point(c, &a, &b, &d);
+            if (c - p).norm_squared() < reach * reach {
+                out.push(t as u32);
+            }
+        }
+    }
+
+    /// The contact of a sphere (centre c, radius r) with triangle t, or None when
+    /// there is none or when another triangle owns the closest feature.
+    #[inline]
+    pub fn contact(&self, t: usize, c: &Vec3, r: f64) -> Option<WallHit> {
+        let [a, b, d] = self.corners(t);
+        let (p, region) = closest_point(c, &a, &b, &d);
+        let cp = c - p;
+        let dist2 = cp.norm_squared();
+        if dist2 >= r * r {
+            return None;
+        }
+        let tol = 1e-10 * r;
+        match region {
+            Region::Face => {}
+            Region::Edge(k) => {
+                if !self.edge_owned[t][k] {
+                    return None;
+                }
+                let (s, e) = self.edge_nb[t][k];
+                if self.edge_inward[s as usize..e as usize].iter().any(|m| cp.dot(m) > tol) {
+                    return None;
+                }
+            }
+            Region::Vertex(k) => {
+                if !self.vertex_owned[t][k] {
+                    return None;
+                }
+                let (s, e) = self.vertex_nb[self.triangles[t][k] as usize];
+                if self.vertex_dirs[s as usize..e as usize].iter().any(|u| cp.dot(u) > tol) {
+                    return None;
+                }
+            }
+        }
+        let dist = dist2.sqrt();
+        let n = if dist > 1e-14 * r {
+            cp / dist
+        } else {
+            self.normals[t]
+        };
+        Some(WallHit { n, overlap: r - dist, point: p, feature: t as u32 })
+    }
+
+    /// Write the mesh as a binary STL file.
+    pub fn write_stl(&self, path: &Path) -> std::io::Result<()> {
+        let tris: Vec<stl_io::Triangle> = (0..self.triangles.len())
+            .map(|t| {
+                let c = self.corners(t);
+                let n = self.normals[t];
+                stl_io::Triangle {
+                    normal: stl_io::Normal::new([n.x as f32, n.y as f32, n.z as f32]),
+                    vertices: c.map(|v| stl_io::Vertex::new([v.x as f32, v.y as f32, v.z as f32])),
+                }
+            })
+            .collect();
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        stl_io::write_stl(&mut f, tris.iter())
+    }
+}
+
+/// Append two triangles for the planar quadrilateral a-b-c-d (in order) to a mesh under construction.
+pub fn push_quad(v: &mut Vec<Vec3>, t: &mut Vec<[u32; 3]>, q: [Vec3; 4]) {
+    let idx: Vec<u32> = q
+        .iter()
+        .map(|p| {
+            if let Some(i) = v.iter().position(|x| (x - p).norm() < 1e-12) {
+                i as u32
+            } else {
+                v.push(*p);
+                (v.len() - 1) as u32
+            }
+        })
+        .collect();
+    t.push([idx[0], idx[1], idx[2]]);
+    t.push([idx[0], idx[2], idx[3]]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square() -> Mesh {
+        // unit square in z = 0 made of two triangles sharing the diagonal (0,0)-(1,1)
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        push_quad(&mut v, &mut t, [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ]);
+        Mesh::new(v, t).unwrap()
+    }
+
+    fn hits(m: &Mesh, c: Vec3, r: f64) -> Vec<WallHit> {
+        (0..m.triangles.len()).filter_map(|t| m.contact(t, &c, r)).collect()
+    }
+
+    #[test]
+    fn sphere_on_shared_edge_gets_one_contact() {
+        let m = square();
+        for &c in &[Vec3::new(0.5, 0.5, 0.05), Vec3::new(0.3, 0.3, 0.09), Vec3::new(0.0, 0.0, 0.05)] {
+            let h = hits(&m, c, 0.1);
+            assert_eq!(h.len(), 1, "at {c:?}: {h:?}");
+            assert!((h[0].overlap - (0.1 - c.z)).abs() < 1e-12);
+        }
+        // near but off the diagonal: one face contact
+        let h = hits(&m, Vec3::new(0.52, 0.5, 0.05), 0.1);
+        assert_eq!(h.len(), 1);
+        assert!((h[0].n - Vec3::z()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn convex_edge_and_concave_corner() {
+        // an L: floor z = 0 for x in [0, 1], wall x = 0 for z in [0, 1] (concave corner at x = z = 0 seen from x, z > 0)
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        push_quad(&mut v, &mut t, [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ]);
+        push_quad(&mut v, &mut t, [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ]);
+        let m = Mesh::new(v, t).unwrap();
+        // in the concave corner: one contact with each face
+        let h = hits(&m, Vec3::new(0.05, 0.5, 0.05), 0.1);
+        assert_eq!(h.len(), 2, "{h:?}");
+        // outside, around the convex side of the same edge (x < 0, z < 0): one edge contact
+        let c = Vec3::new(-0.05, 0.5, -0.05);
+        let h = hits(&m, c, 0.1);
+        assert_eq!(h.len(), 1, "{h:?}");
+        assert!((h[0].overlap - (0.1 - 0.05 * 2f64.sqrt())).abs() < 1e-12);
+        // beyond the floor's free edge at x = 1: one edge contact, from its only triangle
+        let h = hits(&m, Vec3::new(1.05, 0.5, 0.05), 0.1);
+        assert_eq!(h.len(), 1, "{h:?}");
+    }
+
+    #[test]
+    fn degenerate_facet_is_refused() {
+        let v = vec![Vec3::zeros(), Vec3::x(), Vec3::x() * 2.0];
+        let e = Mesh::new(v, vec![[0, 1, 2]]).unwrap_err();
+        assert!(e.contains("facet 0 is degenerate"), "{e}");
+    }
+}
