@@ -5,7 +5,7 @@
 
 use crate::contact::hertz::HertzDamping;
 use crate::contact::hooke::HookeExplicit;
-use crate::contact::{Convention, EndOfContact, TangentialHistory};
+use crate::contact::{Convention, EndOfContact, FrictionCap, TangentialHistory};
 use crate::dim::Dimension;
 use crate::error::TalusError;
 use crate::integrate::IntegratorKind;
@@ -78,20 +78,18 @@ pub enum ModelName {
 pub struct ContactSection {
     pub model: ModelName,
     /// The reference code whose conventions fill every option not given.
-    #[serde(default = "default_convention")]
+    #[serde(default)]
     pub convention: Convention,
     /// Hertz damping mapping from e.
     pub damping: Option<HertzDamping>,
     pub end_of_contact: Option<EndOfContact>,
     pub tangential: Option<TangentialHistory>,
+    /// Which normal force caps friction: "total" (LIGGGHTS) or "elastic" (talus).
+    pub friction_cap: Option<FrictionCap>,
     /// hooke: derive kn etc. as LIGGGHTS does at this velocity (m/s).
     pub characteristic_velocity: Option<f64>,
     /// hooke: explicit absolute coefficients.
     pub stiffness: Option<HookeExplicit>,
-}
-
-fn default_convention() -> Convention {
-    Convention::Liggghts
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

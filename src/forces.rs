@@ -103,7 +103,7 @@ fn sweep<L: NormalLaw>(
                 continue;
             };
             contacts += 1;
-            let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - hit.overlap, arm_j: 0.0 };
+            let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - 0.5 * hit.overlap, arm_j: 0.0 };
             let pi = PairInertia::wall(p.radius[i], p.mass[i]);
             let pm = table.get(p.material[i], wall.material);
             let v = relative_velocity(&g, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros());

@@ -57,9 +57,8 @@ impl Material {
 pub struct PairMaterial {
     /// Effective Young's modulus Y* = 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2) (Pa); the same in LIGGGHTS and YADE.
     pub y_eff: f64,
-    /// Effective shear modulus for the Mindlin tangential stiffness k_t = 8 G* sqrt(R* delta) (Pa).
-    /// LIGGGHTS: G* = 1 / (2(2 - nu1)(1 + nu1)/E1 + 2(2 - nu2)(1 + nu2)/E2).
-    /// YADE: G* = G_avg / (2 (2 - nu_avg)), from averaged G and nu. Equal for identical materials.
+    /// Effective shear modulus for the Mindlin tangential stiffness k_t = 8 G* sqrt(R* delta) (Pa):
+    /// G* = 1 / ((2 - nu1)/G1 + (2 - nu2)/G2), the same in LIGGGHTS 3.8 (`createGeff`) and YADE 2023.
     pub g_eff: f64,
     /// Restitution of the pair.
     pub restitution: f64,
@@ -79,7 +78,7 @@ pub struct PairMaterial {
 pub enum Mixing {
     /// LIGGGHTS: Y* and G* in series; e and mu taken from the pair (we use the mean of the two).
     Liggghts,
-    /// YADE Mindlin: Y* in series, G and nu averaged, mu = min(tan phi1, tan phi2).
+    /// YADE Mindlin: Y* and G* in series, mu = min(tan phi1, tan phi2).
     Yade,
 }
 
@@ -117,17 +116,7 @@ impl PairTable {
 pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     let y_eff = 1.0
         / ((1.0 - a.poisson_ratio.powi(2)) / a.youngs_modulus + (1.0 - b.poisson_ratio.powi(2)) / b.youngs_modulus);
-    let g_eff = match mixing {
-        Mixing::Liggghts => {
-            1.0 / (2.0 * (2.0 - a.poisson_ratio) * (1.0 + a.poisson_ratio) / a.youngs_modulus
-                + 2.0 * (2.0 - b.poisson_ratio) * (1.0 + b.poisson_ratio) / b.youngs_modulus)
-        }
-        Mixing::Yade => {
-            let g = 0.5 * (a.shear_modulus() + b.shear_modulus());
-            let nu = 0.5 * (a.poisson_ratio + b.poisson_ratio);
-            g / (2.0 * (2.0 - nu))
-        }
-    };
+    let g_eff = 1.0 / ((2.0 - a.poisson_ratio) / a.shear_modulus() + (2.0 - b.poisson_ratio) / b.shear_modulus());
     let (restitution, friction) = match mixing {
         Mixing::Liggghts => (0.5 * (a.restitution + b.restitution), 0.5 * (a.friction + b.friction)),
         Mixing::Yade => (0.5 * (a.restitution + b.restitution), a.friction.min(b.friction)),

@@ -13,7 +13,7 @@ use crate::analysis::Analysis;
 use crate::case::{Case, ModelName};
 use crate::contact::hertz::{Hertz, HertzDamping};
 use crate::contact::hooke::Hooke;
-use crate::contact::{Convention, EndOfContact, TangentialHistory, TangentialOptions};
+use crate::contact::{Convention, EndOfContact, FrictionCap, TangentialHistory, TangentialOptions};
 use crate::dim::{Dimension, Vec3};
 use crate::error::TalusError;
 use crate::forces::{compute_forces, ContactModel, SweepSettings};
@@ -74,7 +74,7 @@ impl Simulation {
         let path = case.path.display().to_string();
         let conv = case.contact.convention;
         let mixing = match conv {
-            Convention::Liggghts => Mixing::Liggghts,
+            Convention::Liggghts | Convention::Talus => Mixing::Liggghts,
             Convention::Yade => Mixing::Yade,
         };
         let table = PairTable::new(&case.materials, mixing);
@@ -161,24 +161,28 @@ impl Simulation {
             }),
             ModelName::Hertz => ContactModel::Hertz(Hertz {
                 damping: c.damping.unwrap_or(match conv {
-                    Convention::Liggghts => HertzDamping::Liggghts,
+                    Convention::Liggghts | Convention::Talus => HertzDamping::Liggghts,
                     Convention::Yade => HertzDamping::Yade,
                 }),
             }),
         };
         let end = c.end_of_contact.unwrap_or(match conv {
-            Convention::Liggghts => EndOfContact::Tensile,
+            Convention::Liggghts | Convention::Talus => EndOfContact::Tensile,
             Convention::Yade => EndOfContact::Clip,
         });
         let history = c.tangential.unwrap_or(match conv {
-            Convention::Liggghts => TangentialHistory::Total,
+            Convention::Liggghts | Convention::Talus => TangentialHistory::Total,
             Convention::Yade => TangentialHistory::Incremental,
+        });
+        let cap = c.friction_cap.unwrap_or(match conv {
+            Convention::Talus => FrictionCap::Elastic,
+            Convention::Liggghts | Convention::Yade => FrictionCap::Total,
         });
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
         let set = Settings {
             dt,
             dim: s.dimension,
-            sweep: SweepSettings { model, end, tang: TangentialOptions { history }, gravity: Vec3::from(s.gravity), dt },
+            sweep: SweepSettings { model, end, tang: TangentialOptions { history, cap }, gravity: Vec3::from(s.gravity), dt },
             integrator: s.integrator,
             domain,
             rayleigh_time: tr,

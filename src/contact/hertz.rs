@@ -67,7 +67,28 @@ impl NormalLaw for Hertz {
     }
 }
 
-/// YADE 2023's damping ratio for restitution e (fraction of critical damping).
+/// YADE 2023's damping ratio for restitution e (fraction of critical damping),
+/// from the fit of Thornton, Cummins and Cleary (2013, Powder Technology 233,
+/// Table 2 and eqs. B6-B7) used by `Ip2_FrictMat_FrictMat_MindlinPhys` with `en`:
+/// alpha(e) = sum_{k=1..10} h_k e^k, beta = sqrt(1 / (1 - (1 + e)^2 exp(alpha)) - 1).
+/// YADE then uses c_n = 2 beta sqrt(m* k_n) with the tangent stiffness
+/// k_n = 3/2 k_no sqrt(delta) = 2 Y* sqrt(R* delta), and likewise c_s with k_s.
+///
+/// ```
+/// // YADE 2023.02a gives betan = 0.2330249 for en = 0.5
+/// let b = talus::contact::hertz::yade_damping_ratio(0.5);
+/// assert!((b - 0.2330249).abs() < 1e-7);
+/// ```
 pub fn yade_damping_ratio(e: f64) -> f64 {
-    -beta(e)
+    if e >= 1.0 {
+        return 0.0;
+    }
+    const H: [f64; 10] = [
+        -6.918798, -16.41105, 146.8049, -796.4559, 2928.711, -7206.864, 11494.29, -11342.18, 6276.757, -1489.915,
+    ];
+    let mut alpha = 0.0;
+    for h in H.iter().rev() {
+        alpha = (alpha + h) * e;
+    }
+    (1.0 / (1.0 - (1.0 + e).powi(2) * alpha.exp()) - 1.0).sqrt()
 }

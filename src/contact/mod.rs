@@ -97,10 +97,27 @@ pub enum TangentialHistory {
     Incremental,
 }
 
+/// Which normal force sets the Coulomb cap mu F.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrictionCap {
+    /// mu |F_n| with F_n the total (elastic plus viscous) normal force (LIGGGHTS
+    /// `tangential_model_history.h`). A tensile tail at the end of a contact adds
+    /// friction, so in gross sliding the tangential impulse exceeds mu times the
+    /// normal impulse.
+    Total,
+    /// mu F_el with F_el the elastic normal force (talus's own choice). The
+    /// viscous normal force integrates to zero over a contact (gamma(delta)
+    /// d delta/dt is an exact differential), so in gross sliding the tangential
+    /// impulse is exactly mu times the normal impulse: Coulomb's law for the impact.
+    Elastic,
+}
+
 /// Options of the tangential stage, shared by every law.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TangentialOptions {
     pub history: TangentialHistory,
+    pub cap: FrictionCap,
 }
 
 /// Result of one contact evaluation.
@@ -136,34 +153,32 @@ pub fn evaluate<L: NormalLaw>(
         f_n = 0.0;
     }
     let v_t = v_rel - g.n * vn;
-    let f_t = tangential(c, tang.history, pm.friction, f_n, g.n, v_t, hist, dt);
+    let cap = pm.friction
+        * match tang.cap {
+            FrictionCap::Total => f_n.abs(),
+            FrictionCap::Elastic => c.f_elastic,
+        };
+    let f_t = tangential(c, tang.history, cap, g.n, v_t, hist, dt);
     ContactForce { force: g.n * f_n + f_t, normal: f_n }
 }
 
-/// Tangential spring-dashpot with a Coulomb slider. The cap is mu |F_n| on the
-/// elastic part; while sliding the dashpot is off, so the tangential force never
-/// exceeds the cap (LIGGGHTS `tangential_model_history.h`).
+/// Tangential spring-dashpot with a Coulomb slider. `cap` bounds the elastic
+/// part; while sliding the dashpot is off, so the tangential force never exceeds
+/// the cap (LIGGGHTS `tangential_model_history.h`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn tangential(
     c: NormalCoeffs,
     mode: TangentialHistory,
-    mu: f64,
-    f_n: f64,
+    cap: f64,
     n: Vec3,
     v_t: Vec3,
     hist: &mut Vec3,
     dt: f64,
 ) -> Vec3 {
-    let cap = mu * f_n.abs();
-    // rotate the stored history onto the current tangent plane, keeping its length
-    let h = *hist;
-    let h_norm2 = h.norm_squared();
-    let mut h_t = h - n * n.dot(&h);
-    let ht2 = h_t.norm_squared();
-    if ht2 > 0.0 && ht2 != h_norm2 {
-        h_t *= (h_norm2 / ht2).sqrt();
-    }
+    // project the stored history onto the current tangent plane (LIGGGHTS:
+    // projection only, no rescaling; YADE rotates, which differs at second order)
+    let h_t = *hist - n * n.dot(hist);
     match mode {
         TangentialHistory::Total => {
             let s = h_t + v_t * dt;
@@ -213,10 +228,14 @@ pub fn torques(g: &ContactGeom, f: Vec3) -> (Vec3, Vec3) {
     (-nxf * g.arm_i, -nxf * g.arm_j)
 }
 
-/// The reference-code convention used to fill unspecified options.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// The convention used to fill unspecified options: one reference code's as a
+/// whole, or talus's own (LIGGGHTS's, but with the Coulomb cap on the elastic
+/// normal force, see [`FrictionCap`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Convention {
+    #[default]
+    Talus,
     Liggghts,
     Yade,
 }

@@ -1,1 +1,180 @@
+//! Per-law analytic tests and proptest invariants.
 
+use super::hertz::{Hertz, HertzDamping};
+use super::hooke::{damping_for_restitution, liggghts_kn, Hooke, HookeExplicit};
+use super::*;
+use crate::material::{mix, Material, Mixing};
+use approx::assert_relative_eq;
+use proptest::prelude::*;
+
+fn soft(e: f64, mu: f64) -> Material {
+    Material {
+        name: "m".into(),
+        youngs_modulus: 1e6,
+        poisson_ratio: 0.3,
+        density: 2500.0,
+        restitution: e,
+        friction: mu,
+    }
+}
+
+fn pm(e: f64, mu: f64) -> PairMaterial {
+    let m = soft(e, mu);
+    mix(&m, &m, Mixing::Liggghts)
+}
+
+const TANG: TangentialOptions = TangentialOptions { history: TangentialHistory::Total, cap: FrictionCap::Total };
+
+fn geom(overlap: f64) -> ContactGeom {
+    ContactGeom { n: Vec3::z(), overlap, arm_i: 0.002 - overlap / 2.0, arm_j: 0.002 - overlap / 2.0 }
+}
+
+#[test]
+fn hertz_elastic_force_is_four_thirds_y_sqrt_r_delta_three_halves() {
+    let p = pm(1.0, 0.0);
+    let pi = PairInertia::particles(0.002, 0.003, 1e-4, 2e-4);
+    for d in [1e-6, 1e-5, 1e-4] {
+        let mut h = Vec3::zeros();
+        let c = evaluate(Hertz { damping: HertzDamping::Liggghts }, EndOfContact::Tensile, TANG, &p, pi, &geom(d), Vec3::zeros(), &mut h, 1e-6);
+        let expect = 4.0 / 3.0 * p.y_eff * pi.r_eff.sqrt() * d.powf(1.5);
+        assert_relative_eq!(c.force.z, expect, max_relative = 1e-12);
+        assert_relative_eq!(c.force.x, 0.0);
+    }
+}
+
+#[test]
+fn hooke_explicit_force_is_kn_delta_minus_gamma_vn() {
+    let h = HookeExplicit { kn: 100.0, kt: 80.0, gamma_n: 0.3, gamma_t: 0.2 };
+    let p = pm(0.5, 0.4);
+    let pi = PairInertia::wall(0.002, 1e-4);
+    let mut hist = Vec3::zeros();
+    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-4), Vec3::new(0.0, 0.0, -0.2), &mut hist, 1e-6);
+    assert_relative_eq!(c.force.z, 100.0 * 1e-4 + 0.3 * 0.2, max_relative = 1e-14);
+    // separating fast: the force goes tensile, or is clipped at zero
+    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
+    assert!(c.normal < 0.0);
+    let c = evaluate(Hooke::Explicit(h), EndOfContact::Clip, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
+    assert_eq!(c.normal, 0.0);
+}
+
+#[test]
+fn liggghts_hooke_stiffness_matches_hertz_peak_overlap_at_v() {
+    // the linear spring k_n has Hertz's peak overlap at the characteristic velocity
+    let p = pm(0.5, 0.4);
+    let (r, m, v) = (0.001, 8.4e-5 / 2.0, 0.7);
+    let kn = liggghts_kn(p.y_eff, r, m, v);
+    let hooke_peak = v * (m / kn).sqrt();
+    let hertz_peak = (15.0 * m * v * v / (16.0 * p.y_eff * r.sqrt())).powf(0.4);
+    assert_relative_eq!(hooke_peak, hertz_peak, max_relative = 1e-12);
+    // the damping gives restitution e for the tensile linear dashpot
+    for e in [0.1, 0.3, 0.5, 0.7, 0.9] {
+        let g = damping_for_restitution(m, kn, e);
+        let zeta = g / (2.0 * (m * kn).sqrt());
+        let e_lin = (-zeta * std::f64::consts::PI / (1.0 - zeta * zeta).sqrt()).exp();
+        assert_relative_eq!(e_lin, e, max_relative = 1e-12);
+    }
+}
+
+#[test]
+fn zero_overlap_zero_velocity_gives_zero_force() {
+    let p = pm(0.5, 0.4);
+    let pi = PairInertia::particles(0.002, 0.002, 1e-4, 1e-4);
+    for law in [Hertz { damping: HertzDamping::Liggghts }, Hertz { damping: HertzDamping::Yade }] {
+        let mut h = Vec3::zeros();
+        let c = evaluate(law, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), &mut h, 1e-6);
+        assert_eq!(c.force, Vec3::zeros());
+    }
+    let mut h = Vec3::zeros();
+    let c = evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), &mut h, 1e-6);
+    assert_eq!(c.force, Vec3::zeros());
+}
+
+fn any_law() -> impl Strategy<Value = (bool, bool, bool)> {
+    (any::<bool>(), any::<bool>(), any::<bool>())
+}
+
+fn eval_any(sel: (bool, bool, bool), p: &PairMaterial, pi: PairInertia, g: &ContactGeom, v: Vec3, h: &mut Vec3) -> ContactForce {
+    let end = if sel.1 { EndOfContact::Clip } else { EndOfContact::Tensile };
+    let tang = TangentialOptions {
+        history: if sel.2 { TangentialHistory::Incremental } else { TangentialHistory::Total },
+        cap: FrictionCap::Total,
+    };
+    if sel.0 {
+        evaluate(Hertz { damping: HertzDamping::Liggghts }, end, tang, p, pi, g, v, h, 1e-5)
+    } else {
+        evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, end, tang, p, pi, g, v, h, 1e-5)
+    }
+}
+
+fn unit(a: f64, b: f64) -> Vec3 {
+    let (s, c) = a.sin_cos();
+    Vec3::new(s * b.cos(), s * b.sin(), c)
+}
+
+proptest! {
+    #[test]
+    fn newtons_third_law(sel in any_law(), a in 0.0..3.14f64, b in 0.0..6.28f64, d in 1e-7..2e-4f64,
+                         vx in -1.0..1.0f64, vy in -1.0..1.0f64, vz in -1.0..1.0f64, e in 0.1..1.0f64, mu in 0.0..1.0f64) {
+        let p = pm(e, mu);
+        let pi = PairInertia::particles(0.002, 0.0025, 1e-4, 1.5e-4);
+        let n = unit(a, b);
+        let v = Vec3::new(vx, vy, vz);
+        let g = ContactGeom { n, overlap: d, arm_i: 0.002, arm_j: 0.0025 };
+        let gs = ContactGeom { n: -n, overlap: d, arm_i: 0.0025, arm_j: 0.002 };
+        let (mut h1, mut h2) = (Vec3::zeros(), Vec3::zeros());
+        for _ in 0..3 {
+            let f1 = eval_any(sel, &p, pi, &g, v, &mut h1);
+            let f2 = eval_any(sel, &p, pi, &gs, -v, &mut h2);
+            prop_assert!((f1.force + f2.force).norm() <= 1e-12 * f1.force.norm().max(1e-30));
+        }
+    }
+
+    #[test]
+    fn frame_indifference(sel in any_law(), a in 0.0..3.14f64, b in 0.0..6.28f64, d in 1e-7..2e-4f64,
+                          vx in -1.0..1.0f64, vy in -1.0..1.0f64, vz in -1.0..1.0f64,
+                          ax in -1.0..1.0f64, ay in -1.0..1.0f64, az in -1.0..1.0f64) {
+        let p = pm(0.5, 0.4);
+        let pi = PairInertia::wall(0.002, 1e-4);
+        let n = unit(a, b);
+        let rot = nalgebra::Rotation3::new(Vec3::new(ax, ay, az) * 2.0);
+        let v = Vec3::new(vx, vy, vz);
+        let g = ContactGeom { n, overlap: d, arm_i: 0.002, arm_j: 0.0 };
+        let gr = ContactGeom { n: rot * n, ..g };
+        let (mut h1, mut h2) = (Vec3::zeros(), Vec3::zeros());
+        for _ in 0..3 {
+            let f1 = eval_any(sel, &p, pi, &g, v, &mut h1);
+            let f2 = eval_any(sel, &p, pi, &gr, rot * v, &mut h2);
+            prop_assert!((rot * f1.force - f2.force).norm() <= 1e-10 * f1.force.norm().max(1e-30));
+        }
+    }
+
+    #[test]
+    fn coulomb_cap_holds_while_sliding(sel in any_law(), d in 1e-7..2e-4f64, vt in 0.5..5.0f64, mu in 0.01..1.0f64) {
+        // 2000 steps of 1e-5 s at vt >= 0.5 m/s: a centimetre of slip, far past sticking
+        let p = pm(0.5, mu);
+        let pi = PairInertia::wall(0.002, 1e-4);
+        let g = ContactGeom { n: Vec3::z(), overlap: d, arm_i: 0.002, arm_j: 0.0 };
+        let mut h = Vec3::zeros();
+        let mut f = eval_any(sel, &p, pi, &g, Vec3::new(vt, 0.0, 0.0), &mut h);
+        for _ in 0..2000 {
+            f = eval_any(sel, &p, pi, &g, Vec3::new(vt, 0.0, 0.0), &mut h);
+        }
+        let ft = Vec3::new(f.force.x, f.force.y, 0.0).norm();
+        let cap = mu * f.normal.abs();
+        prop_assert!((ft - cap).abs() <= 1e-9 * cap, "ft {} cap {}", ft, cap);
+        prop_assert!(f.force.x < 0.0, "friction opposes the slip");
+    }
+
+    #[test]
+    fn incremental_elastic_shear_never_exceeds_cap(d in 1e-7..2e-4f64, vt in -2.0..2.0f64, vn in -0.3..0.3f64, mu in 0.0..1.0f64) {
+        let p = pm(0.5, mu);
+        let pi = PairInertia::wall(0.002, 1e-4);
+        let g = ContactGeom { n: Vec3::z(), overlap: d, arm_i: 0.002, arm_j: 0.0 };
+        let mut h = Vec3::zeros();
+        for k in 0..100 {
+            let v = Vec3::new(vt * (k as f64 * 0.1).cos(), vt * (k as f64 * 0.07).sin(), vn);
+            let f = eval_any((true, false, true), &p, pi, &g, v, &mut h);
+            prop_assert!(h.norm() <= mu * f.normal.abs() * (1.0 + 1e-12) + 1e-300);
+        }
+    }
+}

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Install everything talus needs on Debian bookworm (run as root), then build it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+pkgs=(libopenmpi-dev openmpi-bin libhdf5-dev libclang-dev pkg-config liggghts yade)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "install.sh: installing Debian packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+python3 -m pip install -q --disable-pip-version-check -r requirements.txt
+cargo build --release --quiet
+echo "install.sh: done ($(./target/release/talus --version))"

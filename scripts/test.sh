@@ -1,0 +1,5 @@
+#!/usr/bin/env bash
+# The whole test suite (release build: the physics tests run real collisions and a hopper fill).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo test --release --all-targets -- --test-threads=2

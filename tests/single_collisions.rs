@@ -1,0 +1,98 @@
+//! SC set-ups (CASES.md) against theory: restitution, contact duration, peak
+//! overlap and force, oblique gross sliding.
+
+mod common;
+use common::*;
+
+const SWEEP: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
+
+fn with_e(e: f64) -> String {
+    format!("restitution = {e}")
+}
+
+#[test]
+fn sc_wall_and_pair_return_e_in_with_tensile_end_of_contact() {
+    for case in ["SC-wall.toml", "SC-wall-hooke.toml", "SC-pair.toml", "SC-pair-hooke.toml"] {
+        for e in SWEEP {
+            let s = run_case(case, &[("restitution = 0.5", &with_e(e))]);
+            let out = num(&s, "restitution");
+            assert!((out - e).abs() < 0.005, "{case} e_in {e}: e_out {out}");
+        }
+    }
+}
+
+#[test]
+fn clipped_linear_dashpot_returns_the_schwager_poeschel_restitution() {
+    // a linear dashpot clipped at zero force: e 0.5 -> 0.550, 0.1 -> 0.253 (DESIGN.md, YADE ViscElMat)
+    for (e, expect) in [(0.5, 0.550), (0.1, 0.253)] {
+        let s = run_case("SC-wall-hooke.toml", &[
+            ("restitution = 0.5", &with_e(e)),
+            ("model = \"hooke\"", "model = \"hooke\"\nend_of_contact = \"clip\""),
+        ]);
+        let out = num(&s, "restitution");
+        assert!((out - expect).abs() < 0.005, "e_in {e}: e_out {out}, expected {expect}");
+    }
+}
+
+#[test]
+fn elastic_hertz_impacts_match_hertz_theory() {
+    let m = mass();
+    for (case, r_eff, m_eff, v) in [("SC-wall.toml", R, m, 0.5), ("SC-pair.toml", R / 2.0, m / 2.0, 1.0)] {
+        let s = run_case(case, &[("restitution = 0.5", "restitution = 1.0")]);
+        let (d, t, f) = hertz_theory(y_eff(), r_eff, m_eff, v);
+        for (k, th) in [("max_overlap_m", d), ("contact_duration_s", t), ("max_normal_force_n", f)] {
+            let got = num(&s, k);
+            assert!((got / th - 1.0).abs() < 0.01, "{case} {k}: {got} vs Hertz {th}");
+        }
+        assert!((num(&s, "restitution") - 1.0).abs() < 1e-3);
+    }
+}
+
+#[test]
+fn hooke_impacts_match_the_linear_closed_form() {
+    let m = mass();
+    for (case, r_eff, m_eff, v) in [("SC-wall-hooke.toml", R, m, 0.5), ("SC-pair-hooke.toml", R / 2.0, m / 2.0, 1.0)] {
+        for e in [1.0, 0.5] {
+            let s = run_case(case, &[("restitution = 0.5", &with_e(e))]);
+            let kn = talus::contact::hooke::liggghts_kn(y_eff(), r_eff, m_eff, v);
+            let g = talus::contact::hooke::damping_for_restitution(m_eff, kn, e);
+            let w0 = (kn / m_eff).sqrt();
+            let zeta = g / (2.0 * (m_eff * kn).sqrt());
+            let w = w0 * (1.0 - zeta * zeta).sqrt();
+            // delta(t) = v/w exp(-zeta w0 t) sin(w t): peak where tan(w t) = w / (zeta w0)
+            let tp = (w / (zeta * w0)).atan() / w;
+            let d = v / w * (-zeta * w0 * tp).exp() * (w * tp).sin();
+            // force kn delta + g delta' peaks at t=0 for strong damping, else inside; sample finely
+            let fmax = (0..20000)
+                .map(|k| {
+                    let t = k as f64 * (std::f64::consts::PI / w) / 20000.0;
+                    let x = v / w * (-zeta * w0 * t).exp() * (w * t).sin();
+                    let xd = v / w * (-zeta * w0 * t).exp() * (w * (w * t).cos() - zeta * w0 * (w * t).sin());
+                    kn * x + g * xd
+                })
+                .fold(0.0, f64::max);
+            for (k, th) in [("max_overlap_m", d), ("contact_duration_s", std::f64::consts::PI / w), ("max_normal_force_n", fmax)] {
+                let got = num(&s, k);
+                assert!((got / th - 1.0).abs() < 0.01, "{case} e {e} {k}: {got} vs closed form {th}");
+            }
+        }
+    }
+}
+
+#[test]
+fn oblique_gross_sliding_gives_tangential_restitution_one_minus_mu_one_plus_e_over_tan() {
+    // sliding throughout needs tan(theta) > 3.5 mu (1 + e) = 2.1 for a solid sphere: theta = 80 degrees
+    let (mu, e) = (0.4, 0.5);
+    for case in ["SC-oblique.toml", "SC-oblique-hooke.toml"] {
+        let th = 80f64.to_radians();
+        let v = format!("velocity = [{}, 0.0, {}]", 0.5 * th.sin(), -0.5 * th.cos());
+        let s = run_case(case, &[("velocity = [0.35355339059327373, 0.0, -0.35355339059327373]", &v)]);
+        let expect = 1.0 - mu * (1.0 + e) / th.tan();
+        let got = num(&s, "tangential_restitution");
+        assert!((got / expect - 1.0).abs() < 0.01, "{case}: tangential restitution {got} vs {expect}");
+        // the spin picked up: omega = 5/2 (v_t,in - v_t,out) / R for a solid sphere
+        let spin = num(&s, "spin_rad_s");
+        let dv = 0.5 * th.sin() * (1.0 - got);
+        assert!((spin / (2.5 * dv / R) - 1.0).abs() < 0.01, "spin {spin}");
+    }
+}
