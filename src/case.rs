@@ -245,7 +245,7 @@ impl Case {
     /// Parse case text; `path` names it in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> Result<Case, TalusError> {
         let mut case: Case = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
+            let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
             let at = line.map(|l| format!(", line {l}")).unwrap_or_default();
             TalusError::Input(format!("{}{at}: {}", path.display(), e.message()))
         })?;

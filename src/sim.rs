@@ -98,6 +98,13 @@ impl Simulation {
                             e.radius
                         )));
                     }
+                    for (key, v) in [("position", e.position), ("velocity", e.velocity), ("spin", e.spin)] {
+                        if v.iter().any(|x| !x.is_finite()) {
+                            return Err(TalusError::Input(format!(
+                                "{path}: particles.list[{k}].{key} = {v:?}: every component must be a finite number"
+                            )));
+                        }
+                    }
                     if !seen.insert(e.id) {
                         return Err(TalusError::Input(format!("{path}: particles.list[{k}].id = {} appears twice", e.id)));
                     }
