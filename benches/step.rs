@@ -1,1 +1,100 @@
-fn main(){}
+//! Criterion benches: the force sweep and a full step on a settled H1-small bed,
+//! and the cost per particle-step from 5,000 to 100,000 particles in a packed
+//! bed (linear scaling shows as a flat time per particle-step).
+//!
+//! Run: `cargo bench --bench step` (criterion's report gives time per step and,
+//! through `Throughput::Elements`, particle-steps per second).
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use std::path::Path;
+use talus::case::Case;
+use talus::forces::compute_forces;
+use talus::sim::Simulation;
+
+fn h1_small_settled() -> Simulation {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = root.join("cases/H1-small.toml");
+    let case = Case::load(&path).unwrap();
+    let mut sim = Simulation::new(case).unwrap();
+    // fill until the pile has settled (the KE criterion), as the fill phase does
+    while sim.state.phase == 0 && sim.state.settle_end.is_none() {
+        sim.step().unwrap();
+        sim.advance_phase().unwrap();
+    }
+    sim
+}
+
+fn packed_bed(n_side_xy: usize, layers: usize) -> Simulation {
+    let r = 0.001;
+    let half = n_side_xy as f64 * r;
+    let text = format!(
+        r#"
+[simulation]
+timestep_rayleigh_fraction = 0.2
+gravity = [0.0, 0.0, -9.81]
+skin = 0.0004
+domain = {{ lo = [{lo}, {lo}, -0.001], hi = [{hi}, {hi}, {top}] }}
+[contact]
+model = "hertz"
+[[material]]
+name = "m"
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+density = 2500.0
+restitution = 0.5
+friction = 0.4
+[particles]
+material = "m"
+lattice = {{ count = {count}, radius_min = {r}, radius_max = {r}, lo = [{nlo}, {nlo}, 0.0], hi_xy = [{nhi}, {nhi}], spacing = 2.0, seed = 1 }}
+[[wall]]
+name = "floor"
+material = "m"
+plane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}
+[[phase]]
+name = "run"
+duration = 100.0
+"#,
+        lo = -half - 0.01,
+        hi = half + 0.01,
+        top = 2.0 * r * layers as f64 + 0.01,
+        count = n_side_xy * n_side_xy * layers,
+        nlo = -half,
+        nhi = half + 1e-9,
+    );
+    let mut sim = Simulation::new(Case::parse(&text, Path::new("packed.toml")).unwrap()).unwrap();
+    for _ in 0..200 {
+        sim.step().unwrap();
+    }
+    sim
+}
+
+fn bench_h1(c: &mut Criterion) {
+    let mut sim = h1_small_settled();
+    let n = sim.state.p.len() as u64;
+    let mut g = c.benchmark_group("h1_small_settled");
+    g.throughput(Throughput::Elements(n));
+    g.bench_function("force_sweep", |b| {
+        b.iter(|| {
+            let st = &mut sim.state;
+            compute_forces(&sim.set.sweep, &mut st.p, &mut st.walls, &mut st.nl, &sim.table)
+        })
+    });
+    g.bench_function("full_step", |b| b.iter(|| sim.step().unwrap()));
+    g.finish();
+}
+
+fn bench_scaling(c: &mut Criterion) {
+    let mut g = c.benchmark_group("scaling_packed_bed");
+    g.sample_size(10);
+    // 20 layers; 5k, 20k, 50k, 100k particles
+    for side in [16usize, 32, 50, 71] {
+        let mut sim = packed_bed(side, 20);
+        let n = sim.state.p.len();
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| b.iter(|| sim.step().unwrap()));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_h1, bench_scaling);
+criterion_main!(benches);
