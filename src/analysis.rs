@@ -145,6 +145,7 @@ impl Analysis {
                 let i = c.particle;
                 let overlap = match (c.partner, c.wall) {
                     (Some(j), _) => p.radius[i] + p.radius[j] - (p.pos[i] - p.pos[j]).norm(),
+                    (_, Some(w)) if !st.walls[w].active => -p.radius[i],
                     (_, Some(w)) => match &st.walls[w].shape {
                         Shape::Plane(pl) => p.radius[i] - pl.distance(&p.pos[i]),
                         Shape::Mesh(_) => unreachable!(),

@@ -150,6 +150,8 @@ pub struct WallSection {
     pub stl: Option<PathBuf>,
     #[serde(default)]
     pub velocity: [f64; 3],
+    /// Remove the wall at this simulated time (s).
+    pub remove_at: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -369,6 +371,11 @@ impl Case {
             self.material_index(&w.material, &format!("wall.{}.material", w.name))?;
             if w.plane.is_some() == w.stl.is_some() {
                 return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane and stl"));
+            }
+            if let Some(t) = w.remove_at {
+                if !(t.is_finite() && t >= 0.0) {
+                    return Err(self.err(&format!("wall.{}.remove_at", w.name), t, "must be a time >= 0 (s)"));
+                }
             }
             if let Some(p) = &w.plane {
                 let n = (p.normal[0].powi(2) + p.normal[1].powi(2) + p.normal[2].powi(2)).sqrt();

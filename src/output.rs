@@ -31,6 +31,9 @@ impl Probes {
             for c in ["x", "y", "z"] {
                 h.push_str(&format!(",{}_force_{c}_n", w.name));
             }
+            for c in ["x", "y", "z"] {
+                h.push_str(&format!(",{}_torque_{c}_n_m", w.name));
+            }
         }
         if o.mass_below_z.is_some() {
             h.push_str(",mass_below_kg");
@@ -54,8 +57,10 @@ impl Probes {
         let phase = sim.case.phases.get(st.phase).map(|p| p.name.as_str()).unwrap_or("end");
         let mut line = format!("{:.9e},{},{},{:.9e},{}", st.time, st.step, phase, st.p.kinetic_energy(), st.contacts);
         for w in &st.walls {
-            for k in 0..3 {
-                line.push_str(&format!(",{:.9e}", w.force[k]));
+            for v in [w.force, w.torque] {
+                for k in 0..3 {
+                    line.push_str(&format!(",{:.9e}", v[k]));
+                }
             }
         }
         let mb = self.mass_below_z.map(|z| Probes::mass_below(st, z));

@@ -154,6 +154,7 @@ impl Simulation {
                 material: case.material_index(&w.material, "wall.material")?,
                 velocity: Vec3::from(w.velocity),
                 active: true,
+                remove_at: w.remove_at,
                 force: Vec3::zeros(),
                 torque: Vec3::zeros(),
             });
@@ -283,6 +284,18 @@ impl Simulation {
         self.state.step += 1;
         self.state.time = self.state.step as f64 * dt;
         self.record(false);
+        let t = self.state.time;
+        let mut removed = false;
+        for w in &mut self.state.walls {
+            if w.active && w.remove_at.is_some_and(|r| t >= r - 0.5 * dt) {
+                w.active = false;
+                removed = true;
+            }
+        }
+        if removed {
+            self.state.nl.build(&self.state.p, &self.state.walls, &self.set.domain)?;
+            self.forces();
+        }
         Ok(())
     }
 

@@ -65,6 +65,8 @@ pub struct Wall {
     pub velocity: Vec3,
     /// Whether the wall still takes part (a removed gate does not).
     pub active: bool,
+    /// Simulated time at which the wall is removed, if any (s).
+    pub remove_at: Option<f64>,
     /// Force exerted by the particles on the wall this step (N).
     pub force: Vec3,
     /// Torque about the origin exerted by the particles on the wall this step (N m).

@@ -1,0 +1,67 @@
+//! Wall behaviour in whole runs: a wall moving with a prescribed velocity, a wall
+//! removed at a time, and a sphere on the shared edge of two coplanar STL triangles.
+
+mod common;
+use common::*;
+
+#[test]
+fn moving_wall_launches_a_resting_sphere_at_twice_its_speed() {
+    // elastic impact with an infinitely massive wall moving at 0.5 m/s: the sphere leaves at 1.0 m/s
+    let mut sim = sim("SC-wall.toml", &[
+        ("restitution = 0.5", "restitution = 1.0"),
+        ("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, 0.0]"),
+        ("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.5]"),
+    ]);
+    while sim.state.time < 0.004 {
+        sim.step().unwrap();
+    }
+    let vz = sim.state.p.vel[0].z;
+    assert!((vz - 1.0).abs() < 1e-3, "sphere speed after the moving wall hit it: {vz}");
+}
+
+#[test]
+fn wall_removed_at_a_time_no_longer_acts() {
+    // the plate goes at 0.1 ms, before the sphere reaches it: no collision
+    let s = run_case("SC-wall.toml", &[
+        ("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nremove_at = 1e-4"),
+        ("lo = [-0.01, -0.01, -0.001]", "lo = [-0.01, -0.01, -0.01]"),
+    ]);
+    assert_eq!(num(&s, "restitution"), -1.0, "the sphere must pass unhindered");
+    assert_eq!(num(&s, "max_overlap_m"), 0.0);
+}
+
+#[test]
+fn sphere_dropped_on_the_shared_edge_of_an_stl_square_bounces_once_with_one_contact() {
+    let d = tempfile::tempdir().unwrap();
+    // a 20 mm square plate in z = 0 made of two triangles sharing the diagonal through the origin
+    let mut v = Vec::new();
+    let mut t = Vec::new();
+    use talus::dim::Vec3;
+    talus::walls::mesh::push_quad(&mut v, &mut t, [
+        Vec3::new(-0.01, -0.01, 0.0),
+        Vec3::new(0.01, -0.01, 0.0),
+        Vec3::new(0.01, 0.01, 0.0),
+        Vec3::new(-0.01, 0.01, 0.0),
+    ]);
+    let m = talus::walls::Mesh::new(v, t).unwrap();
+    let stl = d.path().join("square.stl");
+    m.write_stl(&stl).unwrap();
+    let plane = "plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }";
+    // the sphere falls on the diagonal (x = y = 0): one contact, so Hertz's peak overlap
+    let mut mesh_sim = sim("SC-wall.toml", &[
+        ("restitution = 0.5", "restitution = 1.0"),
+        (plane, &format!("stl = \"{}\"", stl.display())),
+        ("[analysis]\nkind = \"collision\"\nparticle = 1\nwall = \"plate\"\n", ""),
+    ]);
+    let mut max_contacts = 0;
+    let mut max_overlap: f64 = 0.0;
+    while mesh_sim.state.time < 0.004 {
+        mesh_sim.step().unwrap();
+        max_contacts = max_contacts.max(mesh_sim.state.contacts);
+        max_overlap = max_overlap.max(0.002 - mesh_sim.state.p.pos[0].z);
+    }
+    assert_eq!(max_contacts, 1);
+    let (d_hertz, _, _) = hertz_theory(y_eff(), R, mass(), 0.5);
+    assert!((max_overlap / d_hertz - 1.0).abs() < 0.01, "overlap {max_overlap} vs {d_hertz}");
+    assert!((mesh_sim.state.p.vel[0].z - 0.5).abs() < 1e-3);
+}
