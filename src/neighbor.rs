@@ -12,7 +12,6 @@ use crate::error::TalusError;
 use crate::particles::Particles;
 use crate::walls::Wall;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 
 /// Axis-aligned box that particles must stay inside.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
@@ -68,22 +67,25 @@ impl NeighborList {
     /// Rebuild the lists, carrying contact history over by global ids.
     pub fn build(&mut self, p: &Particles, walls: &[Wall], domain: &Domain) -> Result<(), TalusError> {
         let n = p.len();
-        // old history keyed by global ids
-        let mut old_pair: HashMap<(u64, u64), Vec3> = HashMap::new();
+        // old non-zero history keyed by global ids, sorted by key
+        let mut old_pair: Vec<((u64, u64), Vec3)> = Vec::new();
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
             if self.pair_hist[k] != Vec3::zeros() {
-                old_pair.insert((p.id[a as usize], p.id[b as usize]), self.pair_hist[k]);
+                old_pair.push(((p.id[a as usize], p.id[b as usize]), self.pair_hist[k]));
             }
         }
-        let mut old_wall: HashMap<(u64, u16, u32), Vec3> = HashMap::new();
+        old_pair.sort_unstable_by_key(|x| x.0);
+        let mut old_wall: Vec<((u64, u16, u32), Vec3)> = Vec::new();
         for i in 0..self.wall_start.len().saturating_sub(1).min(n) {
             for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
                 if self.wall_hist[k] != Vec3::zeros() {
                     let (w, f) = self.wall_feat[k];
-                    old_wall.insert((p.id[i], w, f), self.wall_hist[k]);
+                    old_wall.push(((p.id[i], w, f), self.wall_hist[k]));
                 }
             }
         }
+        old_wall.sort_unstable_by_key(|x| x.0);
+        let mut cursor = 0usize;
 
         let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
         let cell = (2.0 * rmax + self.skin).max(1e-12);
@@ -158,8 +160,14 @@ impl NeighborList {
             }
             row.sort_unstable();
             for &(idb, b) in &row {
+                // new pairs come in increasing (ida, idb): merge with the old sorted history
+                let key = (ida, idb);
+                while cursor < old_pair.len() && old_pair[cursor].0 < key {
+                    cursor += 1;
+                }
+                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
                 self.pairs.push((a as u32, b));
-                self.pair_hist.push(old_pair.get(&(ida, idb)).copied().unwrap_or_else(Vec3::zeros));
+                self.pair_hist.push(h);
             }
         }
 
@@ -178,7 +186,9 @@ impl NeighborList {
                 wall.candidates(&p.pos[i], p.radius[i], self.skin, &mut feats);
                 for &f in &feats {
                     self.wall_feat.push((w as u16, f));
-                    self.wall_hist.push(old_wall.get(&(p.id[i], w as u16, f)).copied().unwrap_or_else(Vec3::zeros));
+                    let key = (p.id[i], w as u16, f);
+                    let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or_else(|_| Vec3::zeros());
+                    self.wall_hist.push(h);
                 }
             }
         }

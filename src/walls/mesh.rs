@@ -44,6 +44,8 @@ pub struct Mesh {
     /// Per vertex: range in `vertex_dirs` of unit vectors along its edges.
     vertex_nb: Vec<(u32, u32)>,
     vertex_dirs: Vec<Vec3>,
+    /// Per triangle bounding box (lo, hi).
+    aabb: Vec<(Vec3, Vec3)>,
 }
 
 /// Closest point on triangle (a, b, c) to p, with its region (Ericson,
@@ -195,12 +197,38 @@ impl Mesh {
         }
         let vertex_owned =
             triangles.iter().enumerate().map(|(t, tri)| tri.map(|v| first[v as usize] as usize == t)).collect();
-        Ok(Mesh { vertices, triangles, normals, edge_owned, vertex_owned, edge_nb, edge_inward, vertex_nb, vertex_dirs })
+        let mut m = Mesh {
+            vertices,
+            triangles,
+            normals,
+            edge_owned,
+            vertex_owned,
+            edge_nb,
+            edge_inward,
+            vertex_nb,
+            vertex_dirs,
+            aabb: Vec::new(),
+        };
+        m.update_boxes();
+        Ok(m)
+    }
+
+    fn update_boxes(&mut self) {
+        self.aabb = (0..self.triangles.len())
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                (a.inf(&b).inf(&c), a.sup(&b).sup(&c))
+            })
+            .collect();
     }
 
     pub fn translate(&mut self, d: Vec3) {
         for v in &mut self.vertices {
             *v += d;
+        }
+        for b in &mut self.aabb {
+            b.0 += d;
+            b.1 += d;
         }
     }
 
@@ -211,13 +239,17 @@ impl Mesh {
 
     /// Triangles whose distance from c is below `reach`.
     pub fn candidates(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
-        for t in 0..self.triangles.len() {
-            let [a, b, d] = self.corners(t);
-            let lo = a.inf(&b).inf(&d);
-            let hi = a.sup(&b).sup(&d);
-            if (0..3).any(|k| c[k] < lo[k] - reach || c[k] > hi[k] + reach) {
+        for (t, (lo, hi)) in self.aabb.iter().enumerate() {
+            if c.x < lo.x - reach
+                || c.x > hi.x + reach
+                || c.y < lo.y - reach
+                || c.y > hi.y + reach
+                || c.z < lo.z - reach
+                || c.z > hi.z + reach
+            {
                 continue;
             }
+            let [a, b, d] = self.corners(t);
             let (p, _) = closest_point(c, &a, &b, &d);
             if (c - p).norm_squared() < reach * reach {
                 out.push(t as u32);
