@@ -11,7 +11,7 @@ use crate::dim::Vec3;
 use crate::material::PairTable;
 use crate::neighbor::NeighborList;
 use crate::particles::Particles;
-use crate::walls::Wall;
+use crate::walls::{carry_history, merge_coincident, Wall, WallHit};
 
 /// The contact law of a run, fixed at set-up.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,20 +88,29 @@ fn sweep<L: NormalLaw>(
         w.force = Vec3::zeros();
         w.torque = Vec3::zeros();
     }
+    let mut hits: Vec<Option<WallHit>> = Vec::with_capacity(16);
     for i in 0..n {
         let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
+        if lo == hi {
+            continue;
+        }
+        // all of this particle's wall contacts first, so that coincident ones can
+        // be merged and history can follow a contact from one triangle to the next
+        hits.clear();
         for k in lo..hi {
             let (wi, feat) = nl.wall_feat[k];
-            let wall = &mut walls[wi as usize];
-            let hist = &mut nl.wall_hist[k];
-            if !wall.active {
-                *hist = Vec3::zeros();
-                continue;
-            }
-            let Some(hit) = wall.contact(feat, &p.pos[i], p.radius[i]) else {
+            let wall = &walls[wi as usize];
+            hits.push(if wall.active { wall.contact(feat, &p.pos[i], p.radius[i]) } else { None });
+        }
+        merge_coincident(&nl.wall_feat[lo..hi], &mut hits, p.radius[i]);
+        carry_history(&nl.wall_feat[lo..hi], &hits, &mut nl.wall_hist[lo..hi]);
+        for (k, hit) in hits.iter().enumerate() {
+            let hist = &mut nl.wall_hist[lo + k];
+            let Some(hit) = hit else {
                 *hist = Vec3::zeros();
                 continue;
             };
+            let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
             contacts += 1;
             let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - 0.5 * hit.overlap, arm_j: 0.0 };
             let pi = PairInertia::wall(p.radius[i], p.mass[i]);
@@ -112,7 +121,8 @@ fn sweep<L: NormalLaw>(
             p.force[i] += c.force;
             p.torque[i] += ti;
             wall.force -= c.force;
-            wall.torque -= hit.point.cross(&c.force);
+            // the force acts at the same point as on the particle (arm r - delta/2)
+            wall.torque -= (p.pos[i] - hit.n * g.arm_i).cross(&c.force);
         }
     }
     contacts

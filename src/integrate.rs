@@ -61,7 +61,7 @@ const BINOM: [[f64; 6]; 6] = [
 
 impl GearState {
     /// Set the derivatives from the particles' state and current forces.
-    pub fn init(&mut self, p: &Particles, dt: f64) {
+    pub fn init(&mut self, p: &Particles, dt: f64, dim: Dimension) {
         let n = p.len();
         for k in 0..6 {
             self.r[k] = vec![Vec3::zeros(); n];
@@ -70,9 +70,9 @@ impl GearState {
         for i in 0..n {
             self.r[0][i] = p.pos[i];
             self.r[1][i] = p.vel[i] * dt;
-            self.r[2][i] = p.force[i] * (0.5 * dt * dt * p.inv_mass[i]);
+            self.r[2][i] = dim.project_linear(p.force[i] * (0.5 * dt * dt * p.inv_mass[i]));
             self.w[0][i] = p.omega[i];
-            self.w[1][i] = p.torque[i] * (dt * p.inv_inertia[i]);
+            self.w[1][i] = dim.project_angular(p.torque[i] * (dt * p.inv_inertia[i]));
         }
         self.initialised = true;
     }

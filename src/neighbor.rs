@@ -34,6 +34,8 @@ pub struct NeighborList {
     pub wall_hist: Vec<Vec3>,
     /// Positions at the last build.
     pub x_ref: Vec<Vec3>,
+    /// Largest distance any wall has moved since the last build (m).
+    pub wall_moved: f64,
     pub builds: u64,
 }
 
@@ -42,26 +44,25 @@ impl NeighborList {
         NeighborList { skin, ..Default::default() }
     }
 
-    /// True when some particle moved more than half the skin since the last build.
-    /// Also checks that every particle is finite and inside the domain.
+    /// True when the largest particle displacement plus the largest wall
+    /// displacement since the last build exceeds half the skin (no pair or
+    /// particle-wall contact can then have been missed). Also checks that every
+    /// particle is finite and inside the domain.
     pub fn needs_rebuild(&self, p: &Particles, domain: &Domain) -> Result<bool, TalusError> {
         if self.x_ref.len() != p.len() {
             return Ok(true);
         }
-        let lim = 0.25 * self.skin * self.skin;
-        let mut need = false;
+        let mut max2: f64 = 0.0;
         for i in 0..p.len() {
             let x = &p.pos[i];
-            if (x - self.x_ref[i]).norm_squared() > lim {
-                need = true;
-            }
+            max2 = max2.max((x - self.x_ref[i]).norm_squared());
             if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
                 || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
             {
                 return Err(particle_error(p, i, domain));
             }
         }
-        Ok(need)
+        Ok(max2.sqrt() + self.wall_moved > 0.5 * self.skin)
     }
 
     /// Rebuild the lists, carrying contact history over by global ids.
@@ -88,8 +89,10 @@ impl NeighborList {
         let mut cursor = 0usize;
 
         let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
-        let cell = (2.0 * rmax + self.skin).max(1e-12);
         let ext = domain.hi - domain.lo;
+        // cells no smaller than the interaction range, and no more than about 4 per particle
+        let cap = (ext.x * ext.y * ext.z / (4.0 * n.max(64) as f64)).cbrt();
+        let cell = (2.0 * rmax + self.skin).max(cap).max(1e-12);
         let dims = [0, 1, 2].map(|k| ((ext[k] / cell).floor() as usize).clamp(1, 1 << 20));
         let ncell = dims[0] * dims[1] * dims[2];
         let cell_of = |x: &Vec3| -> usize {
@@ -195,6 +198,7 @@ impl NeighborList {
         self.wall_start.push(self.wall_feat.len() as u32);
         self.x_ref.clear();
         self.x_ref.extend_from_slice(&p.pos);
+        self.wall_moved = 0.0;
         self.builds += 1;
         Ok(())
     }

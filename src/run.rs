@@ -88,10 +88,12 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<(), TalusError
     let first_step = sim.state.step;
     let mut steps = 0u64;
     loop {
-        if !sim.advance_phase()? {
+        // the step limit is checked first, so a checkpoint taken here restarts at
+        // exactly the point where an uninterrupted run would go on
+        if opts.max_steps.is_some_and(|m| steps >= m) {
             break;
         }
-        if opts.max_steps.is_some_and(|m| steps >= m) {
+        if !sim.advance_phase()? {
             break;
         }
         let t_prev = sim.state.time;

@@ -249,7 +249,7 @@ impl Simulation {
             self.refresh_lists()?;
             self.forces();
             if self.set.integrator == IntegratorKind::Gear {
-                self.state.gear.init(&self.state.p, self.set.dt);
+                self.state.gear.init(&self.state.p, self.set.dt, self.set.dim);
             }
             self.state.forces_ready = true;
             self.record(true);
@@ -272,9 +272,14 @@ impl Simulation {
             IntegratorKind::Verlet => integrate::verlet_first(&mut self.state.p, dt, dim),
             IntegratorKind::Gear => self.state.gear.predict(&mut self.state.p, dt),
         }
+        let mut moved: f64 = 0.0;
         for w in &mut self.state.walls {
             w.advance(dt);
+            if w.active {
+                moved = moved.max(w.velocity.norm() * dt);
+            }
         }
+        self.state.nl.wall_moved += moved;
         self.refresh_lists()?;
         self.forces();
         match self.set.integrator {
@@ -284,17 +289,13 @@ impl Simulation {
         self.state.step += 1;
         self.state.time = self.state.step as f64 * dt;
         self.record(false);
+        // a removed wall stops acting from the next force sweep on (the sweep skips
+        // inactive walls; their candidates leave the list at its next rebuild)
         let t = self.state.time;
-        let mut removed = false;
         for w in &mut self.state.walls {
             if w.active && w.remove_at.is_some_and(|r| t >= r - 0.5 * dt) {
                 w.active = false;
-                removed = true;
             }
-        }
-        if removed {
-            self.state.nl.build(&self.state.p, &self.state.walls, &self.set.domain)?;
-            self.forces();
         }
         Ok(())
     }
@@ -328,12 +329,6 @@ impl Simulation {
             st.phase += 1;
             st.phase_start = st.time;
             st.settle_end = None;
-            // wall candidates change: rebuild at once
-            st.nl.build(&st.p, &st.walls, &self.set.domain)?;
-            self.forces();
-            if self.set.integrator == IntegratorKind::Gear {
-                // the Gear corrector keeps the pre-removal acceleration; nothing to redo
-            }
         }
         Ok(self.state.phase < self.case.phases.len())
     }

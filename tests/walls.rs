@@ -65,3 +65,20 @@ fn sphere_dropped_on_the_shared_edge_of_an_stl_square_bounces_once_with_one_cont
     assert!((max_overlap / d_hertz - 1.0).abs() < 0.01, "overlap {max_overlap} vs {d_hertz}");
     assert!((mesh_sim.state.p.vel[0].z - 0.5).abs() < 1e-3);
 }
+
+#[test]
+fn a_wall_moving_in_from_afar_still_finds_the_sphere() {
+    // the plate starts 5 mm below the sphere (far outside the skin) and sweeps up at 0.5 m/s
+    let mut sim = sim("SC-wall.toml", &[
+        ("restitution = 0.5", "restitution = 1.0"),
+        ("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, 0.0]"),
+        ("plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }", "plane = { point = [0.0, 0.0, -0.005], normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.5]"),
+        ("lo = [-0.01, -0.01, -0.001]", "lo = [-0.01, -0.01, -0.01]"),
+        ("duration = 0.004", "duration = 0.016"),
+    ]);
+    while sim.state.time < 0.016 {
+        sim.step().unwrap();
+    }
+    let vz = sim.state.p.vel[0].z;
+    assert!((vz - 1.0).abs() < 1e-3, "sphere speed after the moving wall hit it: {vz}");
+}

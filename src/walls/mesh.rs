@@ -4,13 +4,14 @@
 //! vertex one owner (the lowest-indexed triangle that has it), as LIGGGHTS does.
 //! A sphere whose closest point on a triangle is an edge or a vertex gets that
 //! contact only from the owner, and only if the feature really is the closest
-//! point of the whole mesh around it: for an edge, the sphere centre must not
-//! project into any neighbouring triangle across that edge; for a vertex, the
-//! centre must lie in the vertex's Voronoi region, (c - v).(u - v) <= 0 for every
-//! edge (v, u). So a sphere on a shared edge of two coplanar triangles gets one
-//! contact, a sphere on a face near a convex edge gets only the face contact,
-//! and a sphere in a concave corner gets one contact from each face.
-//! Meshes are two-sided.
+//! point of the whole mesh around it: every other triangle sharing the edge must
+//! find its own closest point on that edge (not in its face), and every other
+//! triangle at the vertex must find its closest point at that vertex. The test
+//! reuses the very classification the neighbours make for themselves, so there
+//! is no band near an edge where both a face and an edge contact are kept. A
+//! sphere on a shared edge of two coplanar triangles gets one contact, a sphere
+//! on a face near a convex edge gets only the face contact, and a sphere in a
+//! concave corner gets one contact from each face. Meshes are two-sided.
 
 use crate::dim::Vec3;
 use crate::error::TalusError;
@@ -38,12 +39,12 @@ pub struct Mesh {
     edge_owned: Vec<[bool; 3]>,
     /// Per triangle and vertex: does this triangle own the vertex?
     vertex_owned: Vec<[bool; 3]>,
-    /// Per triangle and edge: range in `edge_inward` of the other triangles' inward in-plane unit vectors.
+    /// Per triangle and edge: range in `edge_tris` of the other triangles sharing the edge.
     edge_nb: Vec<[(u32, u32); 3]>,
-    edge_inward: Vec<Vec3>,
-    /// Per vertex: range in `vertex_dirs` of unit vectors along its edges.
+    edge_tris: Vec<u32>,
+    /// Per vertex: range in `vertex_tris` of the triangles that have it.
     vertex_nb: Vec<(u32, u32)>,
-    vertex_dirs: Vec<Vec3>,
+    vertex_tris: Vec<u32>,
     /// Per triangle bounding box (lo, hi).
     aabb: Vec<(Vec3, Vec3)>,
 }
@@ -148,52 +149,35 @@ impl Mesh {
         let nt = triangles.len();
         let mut edge_owned = vec![[false; 3]; nt];
         let mut edge_nb = vec![[(0u32, 0u32); 3]; nt];
-        let mut edge_inward = Vec::new();
+        let mut edge_tris = Vec::new();
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 let sharers = &edges[&(a.min(b), a.max(b))];
                 edge_owned[t][k] = sharers[0].0 as usize == t;
-                let start = edge_inward.len() as u32;
-                let (pa, pb) = (vertices[a as usize], vertices[b as usize]);
-                let e = (pb - pa).normalize();
-                for &(u, ku) in sharers {
-                    if u as usize == t {
-                        continue;
-                    }
-                    let w = vertices[triangles[u as usize][(ku + 2) % 3] as usize];
-                    let m = (w - pa) - e * e.dot(&(w - pa));
-                    edge_inward.push(m.normalize());
-                }
-                edge_nb[t][k] = (start, edge_inward.len() as u32);
+                let start = edge_tris.len() as u32;
+                edge_tris.extend(sharers.iter().map(|x| x.0).filter(|&u| u as usize != t));
+                edge_nb[t][k] = (start, edge_tris.len() as u32);
             }
         }
-        // vertices: owner and incident edge directions
+        // vertices: owner and incident triangles (in index order)
         let nv = vertices.len();
         let mut first = vec![u32::MAX; nv];
-        let mut dirs: Vec<Vec<Vec3>> = vec![Vec::new(); nv];
+        let mut incident: Vec<Vec<u32>> = vec![Vec::new(); nv];
         for (t, tri) in triangles.iter().enumerate() {
-            for k in 0..3 {
-                let v = tri[k] as usize;
-                if first[v] == u32::MAX {
-                    first[v] = t as u32;
+            for &v in tri {
+                if first[v as usize] == u32::MAX {
+                    first[v as usize] = t as u32;
                 }
+                incident[v as usize].push(t as u32);
             }
         }
-        for &(a, b) in edges.keys() {
-            let (pa, pb) = (vertices[a as usize], vertices[b as usize]);
-            let e = (pb - pa).normalize();
-            dirs[a as usize].push(e);
-            dirs[b as usize].push(-e);
-        }
         let mut vertex_nb = Vec::with_capacity(nv);
-        let mut vertex_dirs = Vec::new();
-        for d in dirs.iter_mut() {
-            // a fixed order keeps the test independent of hash order
-            d.sort_by(|x, y| x.as_slice().partial_cmp(y.as_slice()).unwrap());
-            let s = vertex_dirs.len() as u32;
-            vertex_dirs.extend_from_slice(d);
-            vertex_nb.push((s, vertex_dirs.len() as u32));
+        let mut vertex_tris = Vec::new();
+        for inc in &incident {
+            let s = vertex_tris.len() as u32;
+            vertex_tris.extend_from_slice(inc);
+            vertex_nb.push((s, vertex_tris.len() as u32));
         }
         let vertex_owned =
             triangles.iter().enumerate().map(|(t, tri)| tri.map(|v| first[v as usize] as usize == t)).collect();
@@ -204,9 +188,9 @@ impl Mesh {
             edge_owned,
             vertex_owned,
             edge_nb,
-            edge_inward,
+            edge_tris,
             vertex_nb,
-            vertex_dirs,
+            vertex_tris,
             aabb: Vec::new(),
         };
         m.update_boxes();
@@ -268,25 +252,38 @@ impl Mesh {
         if dist2 >= r * r {
             return None;
         }
-        let tol = 1e-10 * r;
         match region {
             Region::Face => {}
             Region::Edge(k) => {
                 if !self.edge_owned[t][k] {
                     return None;
                 }
+                // every other triangle at this edge must find its closest point on it
+                let tol2 = (1e-9 * r).powi(2);
                 let (s, e) = self.edge_nb[t][k];
-                if self.edge_inward[s as usize..e as usize].iter().any(|m| cp.dot(m) > tol) {
-                    return None;
+                for &u in &self.edge_tris[s as usize..e as usize] {
+                    let [ua, ub, uc] = self.corners(u as usize);
+                    let (q, ru) = closest_point(c, &ua, &ub, &uc);
+                    if ru == Region::Face || (q - p).norm_squared() > tol2 {
+                        return None;
+                    }
                 }
             }
             Region::Vertex(k) => {
                 if !self.vertex_owned[t][k] {
                     return None;
                 }
+                // every triangle at this vertex must find its closest point at it
                 let (s, e) = self.vertex_nb[self.triangles[t][k] as usize];
-                if self.vertex_dirs[s as usize..e as usize].iter().any(|u| cp.dot(u) > tol) {
-                    return None;
+                for &u in &self.vertex_tris[s as usize..e as usize] {
+                    if u as usize == t {
+                        continue;
+                    }
+                    let [ua, ub, uc] = self.corners(u as usize);
+                    let (q, _) = closest_point(c, &ua, &ub, &uc);
+                    if q != p {
+                        return None;
+                    }
                 }
             }
         }
@@ -351,7 +348,10 @@ mod tests {
     }
 
     fn hits(m: &Mesh, c: Vec3, r: f64) -> Vec<WallHit> {
-        (0..m.triangles.len()).filter_map(|t| m.contact(t, &c, r)).collect()
+        let feats: Vec<(u16, u32)> = (0..m.triangles.len() as u32).map(|t| (0, t)).collect();
+        let mut h: Vec<Option<WallHit>> = (0..m.triangles.len()).map(|t| m.contact(t, &c, r)).collect();
+        crate::walls::merge_coincident(&feats, &mut h, r);
+        h.into_iter().flatten().collect()
     }
 
     #[test]
@@ -397,6 +397,38 @@ mod tests {
         // beyond the floor's free edge at x = 1: one edge contact, from its only triangle
         let h = hits(&m, Vec3::new(1.05, 0.5, 0.05), 0.1);
         assert_eq!(h.len(), 1, "{h:?}");
+    }
+
+    #[test]
+    fn no_double_contact_in_a_thin_band_beside_a_shared_edge_or_vertex() {
+        let m = square();
+        for eps in [1e-15, 1e-13, 1e-12, 1e-11, 1e-9, 1e-7] {
+            for c in [
+                Vec3::new(0.5 - eps, 0.5 + eps, 0.05),
+                Vec3::new(0.5 + eps, 0.5 - eps, 0.05),
+                Vec3::new(eps, eps * 0.5, 0.05),
+                Vec3::new(1.0 - eps, 1.0 - 0.3 * eps, 0.05),
+            ] {
+                let h = hits(&m, c, 0.1);
+                assert_eq!(h.len(), 1, "eps {eps} at {c:?}: {h:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn fan_of_coplanar_triangles_gives_one_contact_at_the_shared_vertex() {
+        // six triangles around the origin in z = 0
+        let mut v = vec![Vec3::zeros()];
+        for k in 0..6 {
+            let a = k as f64 * std::f64::consts::PI / 3.0;
+            v.push(Vec3::new(a.cos(), a.sin(), 0.0));
+        }
+        let t: Vec<[u32; 3]> = (0..6).map(|k| [0, 1 + k as u32, 1 + ((k + 1) % 6) as u32]).collect();
+        let m = Mesh::new(v, t).unwrap();
+        for c in [Vec3::new(0.0, 0.0, 0.05), Vec3::new(1e-13, -1e-13, 0.05), Vec3::new(0.01, 0.0, 0.05)] {
+            let h = hits(&m, c, 0.1);
+            assert_eq!(h.len(), 1, "at {c:?}: {h:?}");
+        }
     }
 
     #[test]

@@ -21,6 +21,46 @@ pub struct WallHit {
     pub feature: u32,
 }
 
+/// Merge contacts of one sphere with one wall whose contact points coincide to
+/// within 1e-9 of the radius: near a shared edge or vertex, rounding can make two
+/// triangles each report the same touch (one as a face, one as an edge point).
+/// The face contact, else the first, is kept. `feats` are (wall, feature) per hit.
+pub fn merge_coincident(feats: &[(u16, u32)], hits: &mut [Option<WallHit>], r: f64) {
+    let tol2 = (1e-9 * r).powi(2);
+    for a in 0..hits.len() {
+        for b in a + 1..hits.len() {
+            let (Some(ha), Some(hb)) = (hits[a], hits[b]) else { continue };
+            if feats[a].0 != feats[b].0 || (ha.point - hb.point).norm_squared() > tol2 {
+                continue;
+            }
+            // keep the deeper one (a face beats an edge point by rounding), ties to the first
+            if hb.overlap > ha.overlap {
+                hits[a] = None;
+            } else {
+                hits[b] = None;
+            }
+        }
+    }
+}
+
+/// Let a contact that moves from one triangle of a wall to another keep its
+/// tangential history: a new contact (zero history) takes over the history of a
+/// contact on the same wall that has just ended (non-zero history, no hit).
+pub fn carry_history(feats: &[(u16, u32)], hits: &[Option<WallHit>], hist: &mut [crate::dim::Vec3]) {
+    let zero = Vec3::zeros();
+    for new in 0..hits.len() {
+        if hits[new].is_none() || hist[new] != zero {
+            continue;
+        }
+        if let Some(old) =
+            (0..hits.len()).find(|&o| o != new && hits[o].is_none() && hist[o] != zero && feats[o].0 == feats[new].0)
+        {
+            hist[new] = hist[old];
+            hist[old] = zero;
+        }
+    }
+}
+
 /// An infinite plane; spheres live on the side its normal points to.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Plane {
