@@ -71,10 +71,10 @@ fn sweep<L: NormalLaw>(
         }
         contacts += 1;
         let dist = dist2.sqrt();
-        let nrm = d / dist;
+        let nrm = d * (1.0 / dist);
         let overlap = rsum - dist;
         let g = ContactGeom { n: nrm, overlap, arm_i: p.radius[a] - 0.5 * overlap, arm_j: p.radius[b] - 0.5 * overlap };
-        let pi = PairInertia::particles(p.radius[a], p.radius[b], p.mass[a], p.mass[b]);
+        let pi = nl.pair_inertia[k];
         let pm = table.get(p.material[a], p.material[b]);
         let v = relative_velocity(&g, p.vel[a], p.vel[b], p.omega[a], p.omega[b]);
         let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, hist, s.dt);

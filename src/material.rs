@@ -70,6 +70,9 @@ pub struct PairMaterial {
     pub yade_ratio_n: f64,
     /// YADE Mindlin tangential damping ratio (fraction of critical).
     pub yade_ratio_t: f64,
+    /// Hertz damping prefactors, so that gamma = c sqrt(m*) (R* delta)^(1/4):
+    /// [normal, tangential] for the LIGGGHTS mapping, then for the YADE mapping.
+    pub hertz_damping: [[f64; 2]; 2],
 }
 
 /// How two materials are mixed into one pair (the conventions of the reference codes).
@@ -123,7 +126,11 @@ pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     };
     let beta = crate::contact::hertz::beta(restitution);
     let ratio = crate::contact::hertz::yade_damping_ratio(restitution);
-    PairMaterial { y_eff, g_eff, restitution, friction, beta, yade_ratio_n: ratio, yade_ratio_t: ratio }
+    // S_n = 2 Y* sqrt(R* delta), S_t = 8 G* sqrt(R* delta): sqrt(S m*) = sqrt(2 Y*) sqrt(m*) (R* delta)^(1/4)
+    let (sn, st) = ((2.0 * y_eff).sqrt(), (8.0 * g_eff).sqrt());
+    let l = -2.0 * (5.0f64 / 6.0).sqrt() * beta;
+    let hertz_damping = [[l * sn, l * st], [2.0 * ratio * sn, 2.0 * ratio * st]];
+    PairMaterial { y_eff, g_eff, restitution, friction, beta, yade_ratio_n: ratio, yade_ratio_t: ratio, hertz_damping }
 }
 
 #[cfg(test)]

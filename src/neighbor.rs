@@ -27,6 +27,8 @@ pub struct NeighborList {
     /// Local index pairs (a, b) with id[a] < id[b], sorted by (id[a], id[b]).
     pub pairs: Vec<(u32, u32)>,
     pub pair_hist: Vec<Vec3>,
+    /// R*, m*, sqrt(m*) of each pair (fixed for a pair; computed at build).
+    pub pair_inertia: Vec<crate::contact::PairInertia>,
     /// Particle -> range in `wall_feat`.
     pub wall_start: Vec<u32>,
     /// (wall index, feature index).
@@ -90,8 +92,9 @@ impl NeighborList {
 
         let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
         let ext = domain.hi - domain.lo;
-        // cells no smaller than the interaction range, and no more than about 4 per particle
-        let cap = (ext.x * ext.y * ext.z / (4.0 * n.max(64) as f64)).cbrt();
+        // cells no smaller than the interaction range, and at most 64 per particle
+        // (a huge domain with few particles must not allocate a huge grid)
+        let cap = (ext.x * ext.y * ext.z / (64.0 * n.max(1024) as f64)).cbrt();
         let cell = (2.0 * rmax + self.skin).max(cap).max(1e-12);
         let dims = [0, 1, 2].map(|k| ((ext[k] / cell).floor() as usize).clamp(1, 1 << 20));
         let ncell = dims[0] * dims[1] * dims[2];
@@ -103,7 +106,7 @@ impl NeighborList {
             }
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
         };
-        // counting sort of particles into cells
+        // counting sort of particles into cells, with compact copies in cell order
         let mut start = vec![0u32; ncell + 1];
         let cells: Vec<usize> = p.pos.iter().map(cell_of).collect();
         for &c in &cells {
@@ -113,50 +116,44 @@ impl NeighborList {
             start[c + 1] += start[c];
         }
         let mut fill = start.clone();
-        let mut members = vec![0u32; n];
+        let mut sorted: Vec<(u64, u32, [f64; 4])> = vec![(0, 0, [0.0; 4]); n];
         for (i, &c) in cells.iter().enumerate() {
-            members[fill[c] as usize] = i as u32;
+            let x = p.pos[i];
+            sorted[fill[c] as usize] = (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i] + self.skin]);
             fill[c] += 1;
         }
-        // order of particles by id
+        // order of particles by id (usually the storage order already)
         let mut by_id: Vec<u32> = (0..n as u32).collect();
-        by_id.sort_by_key(|&i| p.id[i as usize]);
+        if !p.id.windows(2).all(|w| w[0] < w[1]) {
+            by_id.sort_by_key(|&i| p.id[i as usize]);
+        }
 
         self.pairs.clear();
         self.pair_hist.clear();
+        self.pair_inertia.clear();
         let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
+        let (nx, ny, nz) = (dims[0], dims[1], dims[2]);
         for &a in &by_id {
             let a = a as usize;
             let xa = p.pos[a];
+            let ra = p.radius[a];
             let ida = p.id[a];
             let c = cells[a];
-            let (cx, cy, cz) = (c % dims[0], (c / dims[0]) % dims[1], c / (dims[0] * dims[1]));
+            let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
             row.clear();
-            for dz in -1i64..=1 {
-                let z = cz as i64 + dz;
-                if z < 0 || z >= dims[2] as i64 {
-                    continue;
-                }
-                for dy in -1i64..=1 {
-                    let y = cy as i64 + dy;
-                    if y < 0 || y >= dims[1] as i64 {
-                        continue;
-                    }
-                    for dx in -1i64..=1 {
-                        let x = cx as i64 + dx;
-                        if x < 0 || x >= dims[0] as i64 {
-                            continue;
-                        }
-                        let cc = ((z as usize * dims[1]) + y as usize) * dims[0] + x as usize;
-                        for &b in &members[start[cc] as usize..start[cc + 1] as usize] {
-                            let bi = b as usize;
-                            if p.id[bi] <= ida {
-                                continue;
-                            }
-                            let cut = p.radius[a] + p.radius[bi] + self.skin;
-                            if (p.pos[bi] - xa).norm_squared() < cut * cut {
-                                row.push((p.id[bi], b));
-                            }
+            let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(nx - 1));
+            for z in cz.saturating_sub(1)..=(cz + 1).min(nz - 1) {
+                for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
+                    // the three cells along x are contiguous in the sorted arrays
+                    let base = (z * ny + y) * nx;
+                    let (lo, hi) = (start[base + x0] as usize, start[base + x1 + 1] as usize);
+                    for &(idb, b, q) in &sorted[lo..hi] {
+                        let (dx, dy, dz) = (q[0] - xa.x, q[1] - xa.y, q[2] - xa.z);
+                        let cut = ra + q[3];
+                        // one rarely-taken branch (`&`, not `&&`): the id test alone
+                        // would be a coin flip for the branch predictor
+                        if (idb > ida) & (dx * dx + dy * dy + dz * dz < cut * cut) {
+                            row.push((idb, b));
                         }
                     }
                 }
@@ -171,6 +168,8 @@ impl NeighborList {
                 let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
                 self.pairs.push((a as u32, b));
                 self.pair_hist.push(h);
+                let bi = b as usize;
+                self.pair_inertia.push(crate::contact::PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
             }
         }
 

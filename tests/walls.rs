@@ -82,3 +82,33 @@ fn a_wall_moving_in_from_afar_still_finds_the_sphere() {
     let vz = sim.state.p.vel[0].z;
     assert!((vz - 1.0).abs() < 1e-3, "sphere speed after the moving wall hit it: {vz}");
 }
+
+#[test]
+fn ascii_and_binary_stl_give_the_same_mesh() {
+    let d = tempfile::tempdir().unwrap();
+    let (hopper, _) = talus::generate::hopper_meshes();
+    let bin = d.path().join("hopper_bin.stl");
+    hopper.write_stl(&bin).unwrap();
+    let mut ascii = String::from("solid hopper\n");
+    for t in &hopper.triangles {
+        ascii.push_str("  facet normal 0 0 0\n    outer loop\n");
+        for &v in t {
+            let p = hopper.vertices[v as usize];
+            ascii.push_str(&format!("      vertex {:e} {:e} {:e}\n", p.x as f32, p.y as f32, p.z as f32));
+        }
+        ascii.push_str("    endloop\n  endfacet\n");
+    }
+    ascii.push_str("endsolid hopper\n");
+    let asc = d.path().join("hopper_ascii.stl");
+    std::fs::write(&asc, ascii).unwrap();
+    let a = talus::walls::Mesh::from_stl(&asc).unwrap();
+    let b = talus::walls::Mesh::from_stl(&bin).unwrap();
+    assert_eq!(a.triangles.len(), 16);
+    assert_eq!(a.vertices.len(), b.vertices.len());
+    // same shape: a sphere in the converging section touches both the same way
+    let c = talus::dim::Vec3::new(0.0, 0.0, 0.01);
+    let ha: Vec<_> = (0..16).filter_map(|t| a.contact(t, &c, 0.03)).map(|h| h.overlap).collect();
+    let hb: Vec<_> = (0..16).filter_map(|t| b.contact(t, &c, 0.03)).map(|h| h.overlap).collect();
+    assert_eq!(ha.len(), 4);
+    assert_eq!(ha, hb);
+}

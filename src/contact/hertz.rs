@@ -41,28 +41,20 @@ pub struct Hertz {
     pub damping: HertzDamping,
 }
 
-const SQRT_5_6: f64 = 0.912_870_929_175_276_8;
-
 impl NormalLaw for Hertz {
     #[inline(always)]
     fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs {
         let sqrt_rd = (pi.r_eff * overlap).sqrt();
         let f_elastic = 4.0 / 3.0 * pm.y_eff * sqrt_rd * overlap;
-        let s_n = 2.0 * pm.y_eff * sqrt_rd;
         let kt = 8.0 * pm.g_eff * sqrt_rd;
-        let (gamma_n, gamma_t) = match self.damping {
-            HertzDamping::Liggghts => {
-                let b = -2.0 * SQRT_5_6 * pm.beta;
-                (b * (s_n * pi.m_eff).sqrt(), b * (kt * pi.m_eff).sqrt())
-            }
-            HertzDamping::Yade => {
-                // critical damping 2 sqrt(m* k) times the pair's damping ratio;
-                // k_n here is the tangent stiffness dF/d delta = S_n
-                let cn = 2.0 * pm.yade_ratio_n * (s_n * pi.m_eff).sqrt();
-                let ct = 2.0 * pm.yade_ratio_t * (kt * pi.m_eff).sqrt();
-                (cn, ct)
-            }
-        };
+        // gamma = 2 zeta sqrt(S m*) with S = 2 Y* sqrt(R* delta) (normal) or 8 G* sqrt(R* delta)
+        // (tangential); the constant parts are precomputed per material pair
+        let [cn, ct] = pm.hertz_damping[match self.damping {
+            HertzDamping::Liggghts => 0,
+            HertzDamping::Yade => 1,
+        }];
+        let q = pi.sqrt_m_eff * sqrt_rd.sqrt();
+        let (gamma_n, gamma_t) = (cn * q, ct * q);
         NormalCoeffs { f_elastic, gamma_n, kt, gamma_t }
     }
 }

@@ -30,22 +30,25 @@ pub struct ContactGeom {
     pub arm_j: f64,
 }
 
-/// Effective radius and mass of a pair: R* = R_i R_j / (R_i + R_j), m* likewise.
-/// A wall has infinite radius and mass: R* = R_i, m* = m_i.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Effective radius and mass of a pair: R* = R_i R_j / (R_i + R_j), m* likewise,
+/// and sqrt(m*). A wall has infinite radius and mass: R* = R_i, m* = m_i. Fixed
+/// for a pair, so the neighbour list computes it once per pair at each build.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PairInertia {
     pub r_eff: f64,
     pub m_eff: f64,
+    pub sqrt_m_eff: f64,
 }
 
 impl PairInertia {
     #[inline(always)]
     pub fn particles(ri: f64, rj: f64, mi: f64, mj: f64) -> Self {
-        PairInertia { r_eff: ri * rj / (ri + rj), m_eff: mi * mj / (mi + mj) }
+        let m_eff = mi * mj / (mi + mj);
+        PairInertia { r_eff: ri * rj / (ri + rj), m_eff, sqrt_m_eff: m_eff.sqrt() }
     }
     #[inline(always)]
     pub fn wall(ri: f64, mi: f64) -> Self {
-        PairInertia { r_eff: ri, m_eff: mi }
+        PairInertia { r_eff: ri, m_eff: mi, sqrt_m_eff: mi.sqrt() }
     }
 }
 
@@ -183,8 +186,9 @@ fn tangential(
         TangentialHistory::Total => {
             let s = h_t + v_t * dt;
             let f_el = -c.kt * s;
-            let fe = f_el.norm();
-            if fe > cap {
+            let fe2 = f_el.norm_squared();
+            if fe2 > cap * cap {
+                let fe = fe2.sqrt();
                 if fe > 0.0 {
                     let f = f_el * (cap / fe);
                     *hist = if c.kt > 0.0 { -f / c.kt } else { Vec3::zeros() };
@@ -200,8 +204,9 @@ fn tangential(
         }
         TangentialHistory::Incremental => {
             let f_el = h_t - c.kt * dt * v_t;
-            let fe = f_el.norm();
-            if fe > cap {
+            let fe2 = f_el.norm_squared();
+            if fe2 > cap * cap {
+                let fe = fe2.sqrt();
                 let f = if fe > 0.0 { f_el * (cap / fe) } else { Vec3::zeros() };
                 *hist = f;
                 f
