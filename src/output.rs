@@ -39,7 +39,10 @@ impl Probes {
             h.push_str(",mass_below_kg");
         }
         for (id, _) in &track {
-            for q in ["vx_m_s", "vy_m_s", "vz_m_s", "wx_rad_s", "wy_rad_s", "wz_rad_s"] {
+            for q in [
+                "x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "wx_rad_s", "wy_rad_s", "wz_rad_s", "fx_n", "fy_n",
+                "fz_n",
+            ] {
                 h.push_str(&format!(",p{id}_{q}"));
             }
         }
@@ -68,9 +71,9 @@ impl Probes {
             line.push_str(&format!(",{m:.9e}"));
         }
         for &(_, i) in &self.track {
-            for v in [st.p.vel[i], st.p.omega[i]] {
+            for v in [st.p.pos[i], st.p.vel[i], st.p.omega[i], st.p.force[i]] {
                 for k in 0..3 {
-                    line.push_str(&format!(",{:.9e}", v[k]));
+                    line.push_str(&format!(",{:e}", v[k]));
                 }
             }
         }

@@ -1,0 +1,133 @@
+"""H1 comparisons: discharge rate, end-of-fill wall loads, Beverloo; and throughput."""
+import csv
+import json
+import math
+import re
+
+import numpy as np
+
+from . import engines, figures, tolerances
+
+
+def _case_numbers(setup):
+    text = (engines.ROOT / "cases" / f"{setup}.toml").read_text()
+    get = lambda k: float(re.search(rf"{k} = ([0-9.eE+-]+)", text).group(1))
+    return {"r_min": get("radius_min"), "r_max": get("radius_max"), "skin": get("skin"),
+            "discharge": float(re.findall(r"^duration = ([0-9.eE+-]+)", text, re.M)[-1])}
+
+
+def read_probes(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def series(rows, key, sign=1.0):
+    return np.array([sign * float(r[key]) for r in rows])
+
+
+def h1_figures(rows, fill_end_time, total_mass):
+    t = series(rows, "time_s")
+    m = series(rows, "mass_below_kg")
+    sel = t >= fill_end_time - 1e-9
+    return {"discharge_rate_kg_s": figures.discharge_rate(t[sel] - fill_end_time, m[sel], total_mass)}
+
+
+def compare_h1(setup, engs, out):
+    nums = _case_numbers(setup)
+    result = {"setup": setup, "engines": {}, "failures": []}
+    series_out = {}
+    ref = "liggghts"
+    if "yade" in engs:
+        raise engines.EngineError("YADE's H1 script is not written yet: run with --engines talus,liggghts")
+    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus")
+    weight, mass = summ["total_weight_n"], summ["total_mass_kg"]
+    fill_end = summ["fill_end_time_s"]
+    rows = read_probes(probes)
+    f = h1_figures(rows, fill_end, mass)
+    f.update({"fill_end_wall_force_z_n": summ["fill_end_wall_force_z_n"],
+              "fill_end_gate_force_z_n": summ["fill_end_gate_force_z_n"]})
+    result["engines"]["talus[liggghts]"] = f
+    series_out["talus[liggghts]"] = rows
+    if ref in engs:
+        lp, lf, _ = engines.run_liggghts_h1(setup, out / "liggghts", fill_end, nums["discharge"],
+                                             summ["timestep_s"], nums["skin"])
+        rows_l = read_probes(lp)
+        g = h1_figures(rows_l, fill_end, mass)
+        fe = next(csv.DictReader(open(lf)))
+        g.update({"fill_end_wall_force_z_n": -float(fe["hopper_force_z_n"]),
+                  "fill_end_gate_force_z_n": -float(fe["gate_force_z_n"])})
+        result["engines"]["liggghts"] = g
+        series_out["liggghts"] = rows_l
+    # Beverloo
+    d = nums["r_min"] + nums["r_max"]  # mean diameter
+    rho_b = tolerances.BULK_FRACTION * 2500.0
+    bev = figures.beverloo(rho_b, 0.04, d, tolerances.BEVERLOO_C, tolerances.BEVERLOO_K)
+    result["beverloo_kg_s"] = bev
+    result["total_weight_n"] = weight
+    for name, g in result["engines"].items():
+        g["force_balance"] = (g["fill_end_wall_force_z_n"] + g["fill_end_gate_force_z_n"]) / weight
+        g["wall_share"] = g["fill_end_wall_force_z_n"] / weight
+        g["rate_over_beverloo"] = g["discharge_rate_kg_s"] / bev if g["discharge_rate_kg_s"] else None
+        if abs(g["force_balance"] - 1.0) > tolerances.H1_BALANCE:
+            result["failures"].append(f"{name}: walls + gate = {g['force_balance']:.4f} of the weight")
+    t = result["engines"]["talus[liggghts]"]
+    for name, g in result["engines"].items():
+        if name.startswith("talus"):
+            continue
+        dr = t["discharge_rate_kg_s"] / g["discharge_rate_kg_s"] - 1.0
+        if abs(dr) > tolerances.H1_DISCHARGE_RATE_REL:
+            result["failures"].append(f"discharge rate: talus differs from {name} by {100 * dr:.1f}%")
+        ds = t["wall_share"] - g["wall_share"]
+        if abs(ds) > tolerances.H1_FORCE_SPLIT_OF_WEIGHT:
+            result["failures"].append(f"wall share of the weight: talus {t['wall_share']:.3f}, {name} {g['wall_share']:.3f}")
+    return result, series_out
+
+
+def plot_h1(out, setup, result, series_out):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 7), sharex=True)
+    for name, rows in series_out.items():
+        t = series(rows, "time_s")
+        a1.plot(t, series(rows, "mass_below_kg"), label=name)
+        a2.plot(t, series(rows, "hopper_force_z_n", -1), label=f"{name} hopper walls")
+        a2.plot(t, series(rows, "gate_force_z_n", -1), "--", label=f"{name} gate")
+    a1.set_ylabel("discharged mass (kg)")
+    a2.set_ylabel("vertical load (N, downward)")
+    a2.set_xlabel("time (s)")
+    a1.legend(fontsize=8)
+    a2.legend(fontsize=7)
+    a1.set_title(f"{setup}: Beverloo {result['beverloo_kg_s']:.3f} kg/s")
+    fig.tight_layout()
+    png = out / f"{setup}.png"
+    fig.savefig(png, dpi=100)
+    names = list(result["engines"])
+    keys = list(next(iter(result["engines"].values())).keys())
+    lines = [f"# {setup}", "", "talus runs in LIGGGHTS's convention; both start from the same cloud file.",
+             f"Beverloo: W = C rho_b sqrt(g) (D - k d)^2.5, C = {tolerances.BEVERLOO_C}, k = {tolerances.BEVERLOO_K}, "
+             f"rho_b = {tolerances.BULK_FRACTION} rho, D = 40 mm (square side), d = mean diameter: "
+             f"{result['beverloo_kg_s']:.4f} kg/s.", "",
+             "| figure | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+    for k in keys:
+        lines.append(f"| {k} | " + " | ".join(f"{result['engines'][n][k]:.5g}" if result['engines'][n][k] is not None else "-" for n in names) + " |")
+    lines += ["", "## Result", "", "all within tolerance" if not result["failures"] else "\n".join(f"- {x}" for x in result["failures"]),
+              "", f"![{setup}]({png.name})", ""]
+    (out / "report.md").write_text("\n".join(lines))
+    (out / "figures.json").write_text(json.dumps(result, indent=1))
+
+
+def throughput(setup, engs, out):
+    """Particle-steps per second of each engine on the same case, N, time step and steps."""
+    nums = _case_numbers(setup)
+    res = {}
+    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus")
+    n, steps = summ["particles"], summ["steps"]
+    res["talus"] = summ["particle_steps_per_s"]
+    if "liggghts" in engs:
+        _, _, log = engines.run_liggghts_h1(setup, out / "liggghts", summ["fill_end_time_s"], nums["discharge"],
+                                            summ["timestep_s"], nums["skin"])
+        secs, lsteps = engines.liggghts_loop_seconds(log)
+        res["liggghts"] = n * lsteps / secs
+    ratios = {k: res["talus"] / v for k, v in res.items() if k != "talus"}
+    return {"setup": setup, "particles": n, "steps": steps, "particle_steps_per_s": res, "talus_over": ratios}
