@@ -66,7 +66,9 @@ fn sweep<L: NormalLaw>(
         let dist2 = d.norm_squared();
         let hist = &mut nl.pair_hist[k];
         if dist2 >= rsum * rsum {
-            *hist = Vec3::zeros();
+            if *hist != Vec3::zeros() {
+                *hist = Vec3::zeros();
+            }
             continue;
         }
         contacts += 1;

@@ -47,6 +47,8 @@ pub struct Mesh {
     vertex_tris: Vec<u32>,
     /// Per triangle bounding box (lo, hi).
     aabb: Vec<(Vec3, Vec3)>,
+    /// Bounding box of the whole mesh.
+    bounds: (Vec3, Vec3),
 }
 
 /// Closest point on triangle (a, b, c) to p, with its region (Ericson,
@@ -192,6 +194,7 @@ impl Mesh {
             vertex_nb,
             vertex_tris,
             aabb: Vec::new(),
+            bounds: (Vec3::zeros(), Vec3::zeros()),
         };
         m.update_boxes();
         Ok(m)
@@ -204,6 +207,9 @@ impl Mesh {
                 (a.inf(&b).inf(&c), a.sup(&b).sup(&c))
             })
             .collect();
+        let lo = self.aabb.iter().fold(Vec3::repeat(f64::INFINITY), |m, b| m.inf(&b.0));
+        let hi = self.aabb.iter().fold(Vec3::repeat(f64::NEG_INFINITY), |m, b| m.sup(&b.1));
+        self.bounds = (lo, hi);
     }
 
     pub fn translate(&mut self, d: Vec3) {
@@ -214,6 +220,13 @@ impl Mesh {
             b.0 += d;
             b.1 += d;
         }
+        self.bounds.0 += d;
+        self.bounds.1 += d;
+    }
+
+    #[inline(always)]
+    fn outside(lo: &Vec3, hi: &Vec3, c: &Vec3, reach: f64) -> bool {
+        c.x < lo.x - reach || c.x > hi.x + reach || c.y < lo.y - reach || c.y > hi.y + reach || c.z < lo.z - reach || c.z > hi.z + reach
     }
 
     #[inline(always)]
@@ -223,14 +236,11 @@ impl Mesh {
 
     /// Triangles whose distance from c is below `reach`.
     pub fn candidates(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
+        if Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
+            return;
+        }
         for (t, (lo, hi)) in self.aabb.iter().enumerate() {
-            if c.x < lo.x - reach
-                || c.x > hi.x + reach
-                || c.y < lo.y - reach
-                || c.y > hi.y + reach
-                || c.z < lo.z - reach
-                || c.z > hi.z + reach
-            {
+            if Self::outside(lo, hi, c, reach) {
                 continue;
             }
             let [a, b, d] = self.corners(t);
