@@ -129,3 +129,12 @@ fn particle_leaving_the_domain_stops_the_run_with_a_checkpoint() {
     assert!(err.contains("particle id 1") && err.contains("left the domain") && err.contains("checkpoint written"), "{err}");
     assert!(d.path().join("out").join("failure_checkpoint.bin").exists());
 }
+
+#[test]
+fn a_nan_during_a_run_stops_it_and_names_the_particle() {
+    let mut sim = sim("SC-pair.toml", &[]);
+    sim.step().unwrap();
+    sim.state.p.vel[1].x = f64::NAN;
+    let err = sim.step().unwrap_err().to_string();
+    assert!(err.contains("particle id 2") && err.contains("non-finite"), "{err}");
+}

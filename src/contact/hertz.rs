@@ -25,6 +25,11 @@ pub enum HertzDamping {
 }
 
 /// beta = ln e / sqrt(ln^2 e + pi^2) (<= 0), the LIGGGHTS damping parameter.
+///
+/// ```
+/// let b = talus::contact::hertz::beta(0.5);
+/// assert!((b - (-0.2154)).abs() < 1e-4);
+/// ```
 #[inline]
 pub fn beta(e: f64) -> f64 {
     if e >= 1.0 {

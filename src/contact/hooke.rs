@@ -52,7 +52,16 @@ pub fn damping_for_restitution(m_eff: f64, k: f64, e: f64) -> f64 {
     (4.0 * m_eff * k / (1.0 + (std::f64::consts::PI / l).powi(2))).sqrt()
 }
 
-/// LIGGGHTS's `model hooke` stiffness at characteristic velocity `v`.
+/// LIGGGHTS's `model hooke` stiffness at characteristic velocity `v` (N/m), from
+/// Y* (Pa), R* (m), m* (kg) and V (m/s).
+///
+/// ```
+/// // a 2 mm seed-soft sphere (m = 8.378e-5 kg) on a seed-soft wall at 0.5 m/s:
+/// // Y* = 1e6 / (2 (1 - 0.3^2)) = 549451 Pa
+/// let kn = talus::contact::hooke::liggghts_kn(549_450.549, 0.002, 8.37758e-5, 0.5);
+/// assert!((kn - 397.18).abs() < 0.01, "{kn}");
+/// // the peak overlap V sqrt(m*/kn) = 0.229 mm is Hertz's at 0.5 m/s
+/// ```
 #[inline]
 pub fn liggghts_kn(y_eff: f64, r_eff: f64, m_eff: f64, v: f64) -> f64 {
     let s = r_eff.sqrt();
