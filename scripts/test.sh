@@ -4,3 +4,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo test --release -- --test-threads=2
 cargo bench --no-run --quiet
+bash scripts/compare_all.sh

@@ -5,7 +5,7 @@
 
 use crate::contact::hertz::HertzDamping;
 use crate::contact::hooke::HookeExplicit;
-use crate::contact::{Convention, EndOfContact, FrictionCap, TangentialHistory};
+use crate::contact::{Convention, EndOfContact, FrictionCap, ShearKinematics, TangentialHistory};
 use crate::dim::Dimension;
 use crate::error::TalusError;
 use crate::integrate::IntegratorKind;
@@ -86,10 +86,24 @@ pub struct ContactSection {
     pub tangential: Option<TangentialHistory>,
     /// Which normal force caps friction: "total" (LIGGGHTS) or "elastic" (talus).
     pub friction_cap: Option<FrictionCap>,
+    /// Which velocity drives the shear spring: "contact_point" (LIGGGHTS) or "full_radii" (YADE Mindlin).
+    pub shear_kinematics: Option<ShearKinematics>,
+    /// Where a wall contact acts: "mid_overlap" (LIGGGHTS) or "surface" (YADE).
+    pub wall_contact_point: Option<WallContactPoint>,
     /// hooke: derive kn etc. as LIGGGHTS does at this velocity (m/s).
     pub characteristic_velocity: Option<f64>,
     /// hooke: explicit absolute coefficients.
     pub stiffness: Option<HookeExplicit>,
+}
+
+/// Where the force of a wall contact acts on the particle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WallContactPoint {
+    /// At the middle of the overlap: arm r - delta/2 (LIGGGHTS).
+    MidOverlap,
+    /// On the wall surface: arm r - delta (YADE `Ig2_Wall_Sphere_ScGeom`).
+    Surface,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

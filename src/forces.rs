@@ -5,7 +5,8 @@
 use crate::contact::hertz::Hertz;
 use crate::contact::hooke::Hooke;
 use crate::contact::{
-    evaluate, relative_velocity, torques, ContactGeom, EndOfContact, NormalLaw, PairInertia, TangentialOptions,
+    evaluate, relative_velocity, torques, yade_shear_velocity, ContactGeom, EndOfContact, NormalLaw, PairInertia,
+    ShearKinematics, TangentialOptions,
 };
 use crate::dim::Vec3;
 use crate::material::PairTable;
@@ -28,6 +29,10 @@ pub struct SweepSettings {
     pub tang: TangentialOptions,
     pub gravity: Vec3,
     pub dt: f64,
+    /// Where a wall contact acts: arm r - f delta from the centre, f = 1/2 at the
+    /// middle of the overlap (LIGGGHTS `cr = r - delta/2`), f = 1 on the wall
+    /// surface (YADE's `ScGeom` contact point for `Ig2_Wall_Sphere_ScGeom`).
+    pub wall_arm_overlap: f64,
 }
 
 /// Compute forces and torques on all particles and the load on every wall.
@@ -79,7 +84,13 @@ fn sweep<L: NormalLaw>(
         let pi = nl.pair_inertia[k];
         let pm = table.get(p.material[a], p.material[b]);
         let v = relative_velocity(&g, p.vel[a], p.vel[b], p.omega[a], p.omega[b]);
-        let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, hist, s.dt);
+        let vs = match s.tang.kinematics {
+            ShearKinematics::ContactPoint => v,
+            ShearKinematics::FullRadii => yade_shear_velocity(
+                nrm, overlap, p.radius[a], p.radius[b], p.vel[a], p.vel[b], p.omega[a], p.omega[b],
+            ),
+        };
+        let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, vs, hist, s.dt);
         let (ta, tb) = torques(&g, c.force);
         p.force[a] += c.force;
         p.force[b] -= c.force;
@@ -114,11 +125,17 @@ fn sweep<L: NormalLaw>(
             };
             let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
             contacts += 1;
-            let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - 0.5 * hit.overlap, arm_j: 0.0 };
+            let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - s.wall_arm_overlap * hit.overlap, arm_j: 0.0 };
             let pi = PairInertia::wall(p.radius[i], p.mass[i]);
             let pm = table.get(p.material[i], wall.material);
             let v = relative_velocity(&g, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros());
-            let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, hist, s.dt);
+            let vs = match s.tang.kinematics {
+                ShearKinematics::ContactPoint => v,
+                ShearKinematics::FullRadii => yade_shear_velocity(
+                    hit.n, hit.overlap, p.radius[i], 0.0, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros(),
+                ),
+            };
+            let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, vs, hist, s.dt);
             let (ti, _) = torques(&g, c.force);
             p.force[i] += c.force;
             p.torque[i] += ti;

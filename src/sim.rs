@@ -10,10 +10,10 @@
 //! 6. time advances; analysis and probes record; phase end conditions are checked.
 
 use crate::analysis::Analysis;
-use crate::case::{Case, ModelName};
+use crate::case::{Case, ModelName, WallContactPoint};
 use crate::contact::hertz::{Hertz, HertzDamping};
 use crate::contact::hooke::Hooke;
-use crate::contact::{Convention, EndOfContact, FrictionCap, TangentialHistory, TangentialOptions};
+use crate::contact::{Convention, EndOfContact, FrictionCap, ShearKinematics, TangentialHistory, TangentialOptions};
 use crate::dim::{Dimension, Vec3};
 use crate::error::TalusError;
 use crate::forces::{compute_forces, ContactModel, SweepSettings};
@@ -182,6 +182,15 @@ impl Simulation {
             Convention::Liggghts | Convention::Talus => TangentialHistory::Total,
             Convention::Yade => TangentialHistory::Incremental,
         });
+        // YADE: Mindlin increments shear with full radii; ViscEl with the contact point
+        let kinematics = c.shear_kinematics.unwrap_or(match (conv, c.model) {
+            (Convention::Yade, ModelName::Hertz) => ShearKinematics::FullRadii,
+            _ => ShearKinematics::ContactPoint,
+        });
+        let wall_contact = c.wall_contact_point.unwrap_or(match conv {
+            Convention::Yade => WallContactPoint::Surface,
+            _ => WallContactPoint::MidOverlap,
+        });
         let cap = c.friction_cap.unwrap_or(match conv {
             Convention::Talus => FrictionCap::Elastic,
             Convention::Liggghts | Convention::Yade => FrictionCap::Total,
@@ -190,7 +199,17 @@ impl Simulation {
         let set = Settings {
             dt,
             dim: s.dimension,
-            sweep: SweepSettings { model, end, tang: TangentialOptions { history, cap }, gravity: Vec3::from(s.gravity), dt },
+            sweep: SweepSettings {
+                model,
+                end,
+                tang: TangentialOptions { history, cap, kinematics },
+                gravity: Vec3::from(s.gravity),
+                dt,
+                wall_arm_overlap: match wall_contact {
+                    WallContactPoint::MidOverlap => 0.5,
+                    WallContactPoint::Surface => 1.0,
+                },
+            },
             integrator: s.integrator,
             domain,
             rayleigh_time: tr,

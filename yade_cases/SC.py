@@ -79,7 +79,7 @@ def liggghts_hooke(m_eff, r_eff, v_char, e):
     kn = 16.0 / 15.0 * math.sqrt(r_eff) * e_star * (
         15.0 * m_eff * v_char ** 2 / (16.0 * math.sqrt(r_eff) * e_star)) ** 0.2
     ln_e = math.log(e)
-    gn = math.sqrt(4.0 * m_eff * kn / (1.0 + (math.pi / ln_e) ** 2))
+    gn = 0.0 if ln_e == 0.0 else math.sqrt(4.0 * m_eff * kn / (1.0 + (math.pi / ln_e) ** 2))
     return kn, kn, gn, gn
 
 
@@ -154,8 +154,8 @@ def main(argv):
     state = {"rows": [], "phys": None, "vel_at": a.vel_at}
 
     def record():
-        t = O.time
-        row = [t]
+        # k dt with k = O.iter (O.time is the same sum of dt, up to accumulated rounding)
+        row = [O.iter * O.dt]
         for sid in spheres:
             s = O.bodies[sid].state
             f = O.forces.f(sid, True)

@@ -116,11 +116,26 @@ pub enum FrictionCap {
     Elastic,
 }
 
+/// Which relative velocity drives the shear spring.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShearKinematics {
+    /// The relative velocity of the two material points at the contact, spin arms
+    /// r - delta/2 (LIGGGHTS `surface_model_default.h`).
+    ContactPoint,
+    /// YADE's shear increment (`ScGeom::getIncidentVel` with
+    /// `avoidGranularRatcheting`): spin arms are the full radii and the
+    /// translational part is scaled by alpha = (r_i + r_j) / (r_i + r_j - delta)
+    /// (1 at a wall).
+    FullRadii,
+}
+
 /// Options of the tangential stage, shared by every law.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TangentialOptions {
     pub history: TangentialHistory,
     pub cap: FrictionCap,
+    pub kinematics: ShearKinematics,
 }
 
 /// Result of one contact evaluation.
@@ -134,8 +149,11 @@ pub struct ContactForce {
 
 /// Evaluate a contact: the normal law gives coefficients, the shared code adds
 /// normal damping, the end-of-contact convention, and the tangential spring,
-/// dashpot and Coulomb slider. `hist` is the law's history (m for `Total`, N for
-/// `Incremental`), zero at first touch. `dt` is the time step (s).
+/// dashpot and Coulomb slider. `v_rel` is the relative velocity at the contact
+/// point (its normal part drives the normal dashpot); `v_shear` is the velocity
+/// whose tangential part drives the shear spring and dashpot (`v_rel` itself, or
+/// YADE's variant, see [`ShearKinematics`]). `hist` is the law's history (m for
+/// `Total`, N for `Incremental`), zero at first touch. `dt` is the time step (s).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate<L: NormalLaw>(
@@ -146,6 +164,7 @@ pub fn evaluate<L: NormalLaw>(
     pi: PairInertia,
     g: &ContactGeom,
     v_rel: Vec3,
+    v_shear: Vec3,
     hist: &mut Vec3,
     dt: f64,
 ) -> ContactForce {
@@ -155,7 +174,7 @@ pub fn evaluate<L: NormalLaw>(
     if end == EndOfContact::Clip && f_n < 0.0 {
         f_n = 0.0;
     }
-    let v_t = v_rel - g.n * vn;
+    let v_t = v_shear - g.n * v_shear.dot(&g.n);
     let cap = pm.friction
         * match tang.cap {
             FrictionCap::Total => f_n.abs(),
@@ -224,6 +243,15 @@ fn tangential(
 #[inline(always)]
 pub fn relative_velocity(g: &ContactGeom, v_i: Vec3, v_j: Vec3, w_i: Vec3, w_j: Vec3) -> Vec3 {
     (v_i - v_j) - (w_i * g.arm_i + w_j * g.arm_j).cross(&g.n)
+}
+
+/// YADE's shear-driving velocity: alpha (v_i - v_j) - (r_i w_i + r_j w_j) x n with
+/// full radii; `r_j` = 0 and alpha = 1 for a wall.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn yade_shear_velocity(n: Vec3, overlap: f64, r_i: f64, r_j: f64, v_i: Vec3, v_j: Vec3, w_i: Vec3, w_j: Vec3) -> Vec3 {
+    let alpha = if r_j > 0.0 { (r_i + r_j) / (r_i + r_j - overlap) } else { 1.0 };
+    (v_i - v_j) * alpha - (w_i * r_i + w_j * r_j).cross(&n)
 }
 
 /// Torques on i and j from the contact force on i.

@@ -23,7 +23,8 @@ fn pm(e: f64, mu: f64) -> PairMaterial {
     mix(&m, &m, Mixing::Liggghts)
 }
 
-const TANG: TangentialOptions = TangentialOptions { history: TangentialHistory::Total, cap: FrictionCap::Total };
+const TANG: TangentialOptions =
+    TangentialOptions { history: TangentialHistory::Total, cap: FrictionCap::Total, kinematics: ShearKinematics::ContactPoint };
 
 fn geom(overlap: f64) -> ContactGeom {
     ContactGeom { n: Vec3::z(), overlap, arm_i: 0.002 - overlap / 2.0, arm_j: 0.002 - overlap / 2.0 }
@@ -35,7 +36,7 @@ fn hertz_elastic_force_is_four_thirds_y_sqrt_r_delta_three_halves() {
     let pi = PairInertia::particles(0.002, 0.003, 1e-4, 2e-4);
     for d in [1e-6, 1e-5, 1e-4] {
         let mut h = Vec3::zeros();
-        let c = evaluate(Hertz { damping: HertzDamping::Liggghts }, EndOfContact::Tensile, TANG, &p, pi, &geom(d), Vec3::zeros(), &mut h, 1e-6);
+        let c = evaluate(Hertz { damping: HertzDamping::Liggghts }, EndOfContact::Tensile, TANG, &p, pi, &geom(d), Vec3::zeros(), Vec3::zeros(), &mut h, 1e-6);
         let expect = 4.0 / 3.0 * p.y_eff * pi.r_eff.sqrt() * d.powf(1.5);
         assert_relative_eq!(c.force.z, expect, max_relative = 1e-12);
         assert_relative_eq!(c.force.x, 0.0);
@@ -48,12 +49,12 @@ fn hooke_explicit_force_is_kn_delta_minus_gamma_vn() {
     let p = pm(0.5, 0.4);
     let pi = PairInertia::wall(0.002, 1e-4);
     let mut hist = Vec3::zeros();
-    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-4), Vec3::new(0.0, 0.0, -0.2), &mut hist, 1e-6);
+    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-4), Vec3::new(0.0, 0.0, -0.2), Vec3::new(0.0, 0.0, -0.2), &mut hist, 1e-6);
     assert_relative_eq!(c.force.z, 100.0 * 1e-4 + 0.3 * 0.2, max_relative = 1e-14);
     // separating fast: the force goes tensile, or is clipped at zero
-    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
+    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
     assert!(c.normal < 0.0);
-    let c = evaluate(Hooke::Explicit(h), EndOfContact::Clip, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
+    let c = evaluate(Hooke::Explicit(h), EndOfContact::Clip, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
     assert_eq!(c.normal, 0.0);
 }
 
@@ -81,11 +82,11 @@ fn zero_overlap_zero_velocity_gives_zero_force() {
     let pi = PairInertia::particles(0.002, 0.002, 1e-4, 1e-4);
     for law in [Hertz { damping: HertzDamping::Liggghts }, Hertz { damping: HertzDamping::Yade }] {
         let mut h = Vec3::zeros();
-        let c = evaluate(law, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), &mut h, 1e-6);
+        let c = evaluate(law, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), Vec3::zeros(), &mut h, 1e-6);
         assert_eq!(c.force, Vec3::zeros());
     }
     let mut h = Vec3::zeros();
-    let c = evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), &mut h, 1e-6);
+    let c = evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), Vec3::zeros(), &mut h, 1e-6);
     assert_eq!(c.force, Vec3::zeros());
 }
 
@@ -98,11 +99,12 @@ fn eval_any(sel: (bool, bool, bool), p: &PairMaterial, pi: PairInertia, g: &Cont
     let tang = TangentialOptions {
         history: if sel.2 { TangentialHistory::Incremental } else { TangentialHistory::Total },
         cap: FrictionCap::Total,
+        kinematics: ShearKinematics::ContactPoint,
     };
     if sel.0 {
-        evaluate(Hertz { damping: HertzDamping::Liggghts }, end, tang, p, pi, g, v, h, 1e-5)
+        evaluate(Hertz { damping: HertzDamping::Liggghts }, end, tang, p, pi, g, v, v, h, 1e-5)
     } else {
-        evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, end, tang, p, pi, g, v, h, 1e-5)
+        evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, end, tang, p, pi, g, v, v, h, 1e-5)
     }
 }
 

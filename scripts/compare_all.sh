@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Physics regression against the reference codes: every SC set-up with both models,
+# and H1-small, through the compare harness. Fails on any figure outside tolerance.
+#   scripts/compare_all.sh [SC_ENGINES [H1_ENGINES]]
+# (defaults: all three engines for SC; talus and LIGGGHTS for H1, whose YADE script is
+# not written yet)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+engines=${1:-talus,liggghts,yade}
+h1_engines=${2:-talus,liggghts}
+out=out/compare
+mkdir -p "$out"
+for setup in SC-wall SC-pair SC-oblique; do
+  for model in hertz hooke; do
+    python3 -m compare "$setup" --model "$model" --engines "$engines" --out "$out/$setup-$model" > "$out-$setup-$model.log" 2>&1 \
+      || { cat "$out-$setup-$model.log"; echo "compare $setup $model: FAILED"; exit 1; }
+    echo "compare $setup $model ($engines): all figures within tolerance"
+  done
+done
+python3 -m compare H1-small --engines "$h1_engines" --out "$out/H1-small" > "$out-H1-small.log" 2>&1 \
+  || { cat "$out-H1-small.log"; echo "compare H1-small: FAILED"; exit 1; }
+echo "compare H1-small ($h1_engines): all figures within tolerance"
