@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Physics regression against the reference codes: every SC set-up with both models,
 # and H1-small, through the compare harness. Fails on any figure outside tolerance.
-#   scripts/compare_all.sh [SC_ENGINES [H1_ENGINES]]
+#   scripts/compare_all.sh [--full] [SC_ENGINES [H1_ENGINES]]
+# --full also runs H1-paper (100,000 spheres; tens of minutes per engine).
 # (defaults: all three engines for SC; talus and LIGGGHTS for H1, whose YADE script is
 # not written yet)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+full=0
+if [ "${1:-}" = "--full" ]; then full=1; shift; fi
 engines=${1:-talus,liggghts,yade}
 h1_engines=${2:-talus,liggghts}
 out=out/compare
@@ -20,3 +23,8 @@ done
 python3 -m compare H1-small --engines "$h1_engines" --out "$out/H1-small" > "$out-H1-small.log" 2>&1 \
   || { cat "$out-H1-small.log"; echo "compare H1-small: FAILED"; exit 1; }
 echo "compare H1-small ($h1_engines): all figures within tolerance"
+if [ "$full" = 1 ]; then
+  python3 -m compare H1-paper --engines "$h1_engines" --out "$out/H1-paper" > "$out-H1-paper.log" 2>&1 \
+    || { cat "$out-H1-paper.log"; echo "compare H1-paper: FAILED"; exit 1; }
+  echo "compare H1-paper ($h1_engines): all figures within tolerance"
+fi
