@@ -147,3 +147,17 @@ def liggghts_loop_seconds(log):
             secs += float(m.group(1))
             steps += int(m.group(2))
     return secs, steps
+
+
+def run_yade_h1(setup, work, fill_time, discharge_time, dt, skin):
+    """YADE on H1 from talus's own initial cloud; returns (probes.csv, fill_end.csv, wall seconds)."""
+    import time
+    work.mkdir(parents=True, exist_ok=True)
+    cloud = work / "cloud.csv"
+    _run([TALUS, "cloud", ROOT / "cases" / f"{setup}.toml", "--out", cloud], work / "cloud.log")
+    probes, fill_end = work / "yade.csv", work / "yade_fill_end.csv"
+    t0 = time.perf_counter()
+    _run(["yade", "-n", "-j", "1", "-x", ROOT / "yade_cases" / "H1.py", "--cloud", cloud, "--out", probes,
+          "--out-fill-end", fill_end, "--fill-time", repr(fill_time), "--discharge-time", repr(discharge_time),
+          "--dt", repr(dt), "--skin", repr(skin)], work / "yade.log")
+    return probes, fill_end, time.perf_counter() - t0

@@ -3,14 +3,13 @@
 # and H1-small, through the compare harness. Fails on any figure outside tolerance.
 #   scripts/compare_all.sh [--full] [SC_ENGINES [H1_ENGINES]]
 # --full also runs H1-paper (100,000 spheres; tens of minutes per engine).
-# (defaults: all three engines for SC; talus and LIGGGHTS for H1, whose YADE script is
-# not written yet)
+# (defaults: all three engines, for SC and H1)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 full=0
 if [ "${1:-}" = "--full" ]; then full=1; shift; fi
 engines=${1:-talus,liggghts,yade}
-h1_engines=${2:-talus,liggghts}
+h1_engines=${2:-talus,liggghts,yade}
 out=out/compare
 mkdir -p "$out"
 for setup in SC-wall SC-pair SC-oblique; do
