@@ -112,14 +112,15 @@ def talus_h1_case(setup, convention):
     return text
 
 
-def run_talus_h1(setup, convention, work):
+def run_talus_h1(setup, convention, work, max_steps=None):
     """talus on H1; returns (probes.csv, summary dict)."""
     import json
     work.mkdir(parents=True, exist_ok=True)
     case = work / f"talus-{convention}.toml"
     case.write_text(talus_h1_case(setup, convention))
     out = work / f"talus-{convention}"
-    _run([TALUS, "run", case, "--out", out, "--quiet"], work / f"talus-{convention}.log")
+    extra = ["--steps", str(max_steps)] if max_steps else []
+    _run([TALUS, "run", case, "--out", out, "--quiet", *extra], work / f"talus-{convention}.log")
     return out / "probes.csv", json.loads((out / "summary.json").read_text())
 
 

@@ -147,22 +147,25 @@ def plot_h1(out, setup, result, series_out):
     (out / "figures.json").write_text(json.dumps(result, indent=1))
 
 
-def throughput(setup, engs, out):
-    """Particle-steps per second of each engine on the same case, N, time step and steps."""
+def throughput(setup, engs, out, max_steps=None):
+    """Particle-steps per second of each engine on the same case, N, time step and steps.
+    With `max_steps`, every engine runs only the first steps of the fill."""
     nums = _case_numbers(setup)
     res = {}
-    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus")
+    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps)
     n, steps = summ["particles"], summ["steps"]
     res["talus"] = summ["particle_steps_per_s"]
+    if max_steps:
+        fill, discharge = steps * summ["timestep_s"], 0.0
+    else:
+        fill, discharge = summ["fill_end_time_s"], nums["discharge"]
     if "liggghts" in engs:
-        _, _, log = engines.run_liggghts_h1(setup, out / "liggghts", summ["fill_end_time_s"], nums["discharge"],
-                                            summ["timestep_s"], nums["skin"])
+        _, _, log = engines.run_liggghts_h1(setup, out / "liggghts", fill, discharge, summ["timestep_s"], nums["skin"])
         secs, lsteps = engines.liggghts_loop_seconds(log)
         res["liggghts"] = n * lsteps / secs
     if "yade" in engs:
         # whole-process wall time (includes YADE's start-up and the per-interval probes)
-        _, _, secs = engines.run_yade_h1(setup, out / "yade", summ["fill_end_time_s"], nums["discharge"],
-                                         summ["timestep_s"], nums["skin"])
+        _, _, secs = engines.run_yade_h1(setup, out / "yade", fill, discharge, summ["timestep_s"], nums["skin"])
         res["yade"] = n * steps / secs
     ratios = {k: res["talus"] / v for k, v in res.items() if k != "talus"}
     return {"setup": setup, "particles": n, "steps": steps, "particle_steps_per_s": res, "talus_over": ratios}

@@ -27,6 +27,9 @@ def write_sc_report(out, setup, model, results, failures):
                 bad = [k for k, v in c.items() if not v["ok"]]
                 lines.append("")
                 lines.append(f"talus vs {ref}: " + ("all figures within tolerance" if not bad else "outside: " + ", ".join(bad)))
+        for key, v in (row.get("references_disagree") or {}).items():
+            lines.append("")
+            lines.append(f"LIGGGHTS ({v['liggghts']:.6g}) and YADE ({v['yade']:.6g}) disagree on {key}: {v['why']}.")
         lines.append("")
     lines += ["## Result", "", "all within tolerance" if not failures else "\n".join(f"- {f}" for f in failures), ""]
     # plot: restitution out vs in (wall, pair) or tangential restitution vs angle (oblique)
