@@ -187,9 +187,8 @@ mod tests {
         let (h, b) = hopper_meshes();
         assert_eq!(h.triangles.len(), 16);
         assert_eq!(b.triangles.len(), 10);
-        // a sphere resting on the converging wall gets one contact
-        let n = Vec3::new(0.05, 0.0, -0.03).normalize(); // inward-up normal of the +x wall is (-0.05·.., 0, ..)
-        let _ = n;
+        // a sphere of radius 30 mm at the axis, 10 mm above the orifice, touches each of the
+        // four converging faces once (each face is two triangles sharing a diagonal)
         let c = Vec3::new(0.0, 0.0, 0.01);
         let hits: Vec<_> = (0..h.triangles.len()).filter_map(|t| h.contact(t, &c, 0.03)).collect();
         assert_eq!(hits.len(), 4, "{hits:?}");
