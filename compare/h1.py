@@ -40,6 +40,20 @@ def _reference_figures(rows, fill_end_csv, fill_end, mass):
     return g
 
 
+def _run_talus(setup, convention, work, result, series_out):
+    """Run talus in a convention; record its figures and series as `talus[convention]`."""
+    probes, summ = engines.run_talus_h1(setup, convention, work)
+    rows = read_probes(probes)
+    f = h1_figures(rows, summ["fill_end_time_s"], summ["total_mass_kg"])
+    f.update({"fill_end_wall_force_z_n": summ["fill_end_wall_force_z_n"],
+              "fill_end_gate_force_z_n": summ["fill_end_gate_force_z_n"]})
+    name = f"talus[{convention}]"
+    result["engines"][name] = f
+    series_out[name] = rows
+    result["total_weight_n"] = summ["total_weight_n"]
+    return summ
+
+
 def compare_h1(setup, engs, out):
     """talus in each reference's convention against that reference, all from the same cloud.
     The reference runs fill for as long as talus's fill did (its kinetic-energy rule)."""
@@ -50,14 +64,8 @@ def compare_h1(setup, engs, out):
         if ref not in engs:
             continue
         tname = f"talus[{ref}]"
-        probes, summ = engines.run_talus_h1(setup, ref, out / f"talus-{ref}")
-        weight, mass, fill_end = summ["total_weight_n"], summ["total_mass_kg"], summ["fill_end_time_s"]
-        rows = read_probes(probes)
-        f = h1_figures(rows, fill_end, mass)
-        f.update({"fill_end_wall_force_z_n": summ["fill_end_wall_force_z_n"],
-                  "fill_end_gate_force_z_n": summ["fill_end_gate_force_z_n"]})
-        result["engines"][tname] = f
-        series_out[tname] = rows
+        summ = _run_talus(setup, ref, out / f"talus-{ref}", result, series_out)
+        mass, fill_end = summ["total_mass_kg"], summ["fill_end_time_s"]
         if ref == "liggghts":
             rp, rf, _ = engines.run_liggghts_h1(setup, out / ref, fill_end, nums["discharge"], summ["timestep_s"], nums["skin"])
         else:
@@ -66,19 +74,10 @@ def compare_h1(setup, engs, out):
         result["engines"][ref] = _reference_figures(rows_r, rf, fill_end, mass)
         series_out[ref] = rows_r
         result["pairs"].append((tname, ref))
-        result["total_weight_n"] = weight
     if not result["pairs"]:
-        if "talus" in engs:
-            probes, summ = engines.run_talus_h1(setup, "talus", out / "talus")
-            rows = read_probes(probes)
-            f = h1_figures(rows, summ["fill_end_time_s"], summ["total_mass_kg"])
-            f.update({"fill_end_wall_force_z_n": summ["fill_end_wall_force_z_n"],
-                      "fill_end_gate_force_z_n": summ["fill_end_gate_force_z_n"]})
-            result["engines"]["talus[talus]"] = f
-            series_out["talus[talus]"] = rows
-            result["total_weight_n"] = summ["total_weight_n"]
-        else:
+        if "talus" not in engs:
             raise engines.EngineError("H1 needs talus among the engines")
+        _run_talus(setup, "talus", out / "talus", result, series_out)
     weight = result["total_weight_n"]
     d = nums["r_min"] + nums["r_max"]  # mean diameter
     rho_b = tolerances.BULK_FRACTION * 2500.0

@@ -7,7 +7,7 @@ use crate::case::{AnalysisSection, Case};
 use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Particles;
-use crate::sim::{Settings, State};
+use crate::sim::State;
 use crate::walls::{Shape, Wall};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
@@ -41,7 +41,6 @@ pub struct Hopper {
     walls: Vec<usize>,
     gate: usize,
     fill: String,
-    discharge: String,
     window: f64,
     /// (time, hopper walls load, gate load) over the last `window` seconds, downward positive.
     recent: VecDeque<(f64, f64, f64)>,
@@ -123,7 +122,6 @@ impl Analysis {
                     walls: ws,
                     gate: wall_index(gate, "gate")?,
                     fill: fill_phase.clone(),
-                    discharge: discharge_phase.clone(),
                     window: *fill_window,
                     recent: VecDeque::new(),
                     fill_end: None,
@@ -136,8 +134,8 @@ impl Analysis {
         })
     }
 
-    /// Record after a step (or, with `initial`, before the first).
-    pub fn record(&mut self, st: &State, _set: &Settings, initial: bool) {
+    /// Record after a step (and once before the first).
+    pub fn record(&mut self, st: &State) {
         match self {
             Analysis::None => {}
             Analysis::Collision(c) => {
@@ -166,7 +164,6 @@ impl Analysis {
                     c.max_force = c.max_force.max(p.force[i].dot(&c.n).abs());
                 }
                 c.prev = Some((t, overlap));
-                let _ = initial;
             }
             Analysis::Hopper(h) => {
                 let down = |w: usize| -st.walls[w].force.z;
@@ -203,7 +200,6 @@ impl Analysis {
                 h.discharge_start = Some(time);
                 h.discharged.push((0.0, 0.0));
             }
-            let _ = &h.discharge;
         }
     }
 

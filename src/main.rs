@@ -82,16 +82,7 @@ fn real_main(cli: Cli) -> Result<(), TalusError> {
         Cmd::Cloud { case, out } => {
             let c = Case::load(&case)?;
             let sim = talus::sim::Simulation::new(c)?;
-            let p = &sim.state.p;
-            let inits: Vec<_> = (0..p.len())
-                .map(|i| talus::particles::ParticleInit {
-                    id: p.id[i],
-                    pos: p.pos[i],
-                    vel: p.vel[i],
-                    omega: p.omega[i],
-                    radius: p.radius[i],
-                })
-                .collect();
+            let inits = sim.state.p.to_inits();
             talus::generate::write_csv(&out, &inits).map_err(|e| TalusError::io(format!("writing {}", out.display()), e))?;
             println!("wrote {} particles to {}", inits.len(), out.display());
             Ok(())

@@ -64,14 +64,9 @@ pub struct PairMaterial {
     pub restitution: f64,
     /// Friction coefficient of the pair.
     pub friction: f64,
-    /// LIGGGHTS damping parameter beta = ln e / sqrt(ln^2 e + pi^2) (<= 0).
-    pub beta: f64,
-    /// YADE Mindlin normal damping ratio (fraction of critical) for this e.
-    pub yade_ratio_n: f64,
-    /// YADE Mindlin tangential damping ratio (fraction of critical).
-    pub yade_ratio_t: f64,
     /// Hertz damping prefactors, so that gamma = c sqrt(m*) (R* delta)^(1/4):
-    /// [normal, tangential] for the LIGGGHTS mapping, then for the YADE mapping.
+    /// [normal, tangential] for the LIGGGHTS mapping (from beta = ln e / sqrt(ln^2 e + pi^2)),
+    /// then for the YADE mapping (from Thornton's damping ratio, the same for en and es).
     pub hertz_damping: [[f64; 2]; 2],
 }
 
@@ -130,7 +125,7 @@ pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     let (sn, st) = ((2.0 * y_eff).sqrt(), (8.0 * g_eff).sqrt());
     let l = -2.0 * (5.0f64 / 6.0).sqrt() * beta;
     let hertz_damping = [[l * sn, l * st], [2.0 * ratio * sn, 2.0 * ratio * st]];
-    PairMaterial { y_eff, g_eff, restitution, friction, beta, yade_ratio_n: ratio, yade_ratio_t: ratio, hertz_damping }
+    PairMaterial { y_eff, g_eff, restitution, friction, hertz_damping }
 }
 
 #[cfg(test)]

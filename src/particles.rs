@@ -72,6 +72,13 @@ impl Particles {
         permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material);
     }
 
+    /// The particles as input records (for writing a cloud file).
+    pub fn to_inits(&self) -> Vec<ParticleInit> {
+        (0..self.len())
+            .map(|i| ParticleInit { id: self.id[i], pos: self.pos[i], vel: self.vel[i], omega: self.omega[i], radius: self.radius[i] })
+            .collect()
+    }
+
     /// Local index of a global id (linear search; used for set-up and probes only).
     pub fn index_of(&self, id: u64) -> Option<usize> {
         self.id.iter().position(|&x| x == id)

@@ -35,23 +35,13 @@ pub fn run(case: Case, opts: &RunOptions) -> Result<RunResult, TalusError> {
     if let Some(r) = &opts.restart {
         read_checkpoint(&mut sim, r)?;
     }
-    run_sim(&mut sim, opts)?;
-    let summary = summarise(&sim, opts)?;
+    let summary = run_sim(&mut sim, opts)?;
     Ok(RunResult { summary, sim })
 }
 
-fn summarise(sim: &Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
-    let path = opts.out.join("summary.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| TalusError::io(format!("reading {}", path.display()), e))?;
-    let _ = sim;
-    match serde_json::from_str::<Value>(&text) {
-        Ok(Value::Object(m)) => Ok(m),
-        _ => Err(TalusError::Run(format!("{} is not a JSON object", path.display()))),
-    }
-}
-
-/// Run an already built simulation; writes outputs and summary.json into `opts.out`.
-pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<(), TalusError> {
+/// Run an already built simulation; writes outputs and summary.json into `opts.out`
+/// and returns the summary.
+pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
     let out = &opts.out;
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     let mut probes = Probes::create(out, sim)?;
@@ -63,11 +53,10 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<(), TalusError
     let interval = sim.case.output.interval;
     sim.prepare()?;
     if sim.state.step == 0 {
-        let mb = probes.write(sim)?;
+        probes.write(sim)?;
         if let Some(s) = snaps.as_mut() {
             s.write(&sim.state)?;
         }
-        let _ = mb;
     }
     let n = sim.state.p.len() as f64;
     let planned_steps = (sim.planned_time() / dt).ceil() as u64;
@@ -158,9 +147,9 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<(), TalusError
         summary.insert(k, v);
     }
     let path = out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&Value::Object(summary)).unwrap() + "\n")
+    std::fs::write(&path, serde_json::to_string_pretty(&summary).unwrap() + "\n")
         .map_err(|e| TalusError::io(format!("writing {}", path.display()), e))?;
-    Ok(())
+    Ok(summary)
 }
 
 /// Load a case file and run it.

@@ -271,14 +271,14 @@ impl Simulation {
                 self.state.gear.init(&self.state.p, self.set.dt, self.set.dim);
             }
             self.state.forces_ready = true;
-            self.record(true);
+            self.record();
         }
         Ok(())
     }
 
-    fn record(&mut self, initial: bool) {
+    fn record(&mut self) {
         let mut a = std::mem::replace(&mut self.state.analysis, Analysis::None);
-        a.record(&self.state, &self.set, initial);
+        a.record(&self.state);
         self.state.analysis = a;
     }
 
@@ -307,7 +307,7 @@ impl Simulation {
         }
         self.state.step += 1;
         self.state.time = self.state.step as f64 * dt;
-        self.record(false);
+        self.record();
         // a removed wall stops acting from the next force sweep on (the sweep skips
         // inactive walls; their candidates leave the list at its next rebuild)
         let t = self.state.time;

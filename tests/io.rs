@@ -8,10 +8,7 @@ use talus::run::{run, RunOptions};
 fn csv_cloud_reproduces_the_lattice_cloud_exactly() {
     let d = tempfile::tempdir().unwrap();
     let lat = sim("H1-small.toml", &[]);
-    let p = &lat.state.p;
-    let inits: Vec<_> = (0..p.len())
-        .map(|i| talus::particles::ParticleInit { id: p.id[i], pos: p.pos[i], vel: p.vel[i], omega: p.omega[i], radius: p.radius[i] })
-        .collect();
+    let inits = lat.state.p.to_inits();
     let csv = d.path().join("cloud.csv");
     talus::generate::write_csv(&csv, &inits).unwrap();
     let text = case_text("H1-small.toml", &[]);
