@@ -6,7 +6,7 @@
 use crate::case::{AnalysisSection, Case};
 use crate::dim::Vec3;
 use crate::error::TalusError;
-use crate::particles::Particles;
+use crate::particles::{Particles, Record};
 use crate::sim::State;
 use crate::walls::{Shape, Wall};
 use serde::{Deserialize, Serialize};
@@ -22,8 +22,9 @@ pub enum Analysis {
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Collision {
-    particle: usize,
-    partner: Option<usize>,
+    /// Global ids of the particle and its partner.
+    particle: u64,
+    partner: Option<u64>,
     wall: Option<usize>,
     /// Normal (from partner to particle) and tangential direction fixed at t = 0.
     n: Vec3,
@@ -54,6 +55,12 @@ pub struct Hopper {
 
 fn relative_velocity(p: &Particles, i: usize, j: Option<usize>) -> Vec3 {
     p.vel[i] - j.map(|j| p.vel[j]).unwrap_or_else(Vec3::zeros)
+}
+
+/// The collision's particle and partner from the records `Analysis::ids` asked for.
+fn pair_of(tracked: &[Option<Record>]) -> (Record, Option<Record>) {
+    let a = tracked[0].expect("the collision particle exists on some rank");
+    (a, tracked.get(1).copied().flatten())
 }
 
 impl Analysis {
@@ -96,8 +103,8 @@ impl Analysis {
                 let vt = v_in - n * v_in.dot(&n);
                 let t = if vt.norm() > 0.0 { vt.normalize() } else { Vec3::zeros() };
                 Analysis::Collision(Collision {
-                    particle: i,
-                    partner,
+                    particle: *particle,
+                    partner: partner.map(|j| p.id[j]),
                     wall,
                     n,
                     t,
@@ -134,18 +141,26 @@ impl Analysis {
         })
     }
 
-    /// Record after a step (and once before the first).
-    pub fn record(&mut self, st: &State) {
+    /// Global ids of the particles `record` and `figures` need, in order.
+    pub fn ids(&self) -> Vec<u64> {
+        match self {
+            Analysis::Collision(c) => std::iter::once(c.particle).chain(c.partner).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Record after a step (and once before the first); `tracked` holds the
+    /// records of `ids()`, gathered from whichever ranks own them.
+    pub fn record(&mut self, st: &State, tracked: &[Option<Record>]) {
         match self {
             Analysis::None => {}
             Analysis::Collision(c) => {
-                let p = &st.p;
-                let i = c.particle;
-                let overlap = match (c.partner, c.wall) {
-                    (Some(j), _) => p.radius[i] + p.radius[j] - (p.pos[i] - p.pos[j]).norm(),
-                    (_, Some(w)) if !st.walls[w].active => -p.radius[i],
+                let (a, b) = pair_of(tracked);
+                let overlap = match (b, c.wall) {
+                    (Some(b), _) => a.radius + b.radius - (a.pos - b.pos).norm(),
+                    (_, Some(w)) if !st.walls[w].active => -a.radius,
                     (_, Some(w)) => match &st.walls[w].shape {
-                        Shape::Plane(pl) => p.radius[i] - pl.distance(&p.pos[i]),
+                        Shape::Plane(pl) => a.radius - pl.distance(&a.pos),
                         Shape::Mesh(_) => unreachable!(),
                     },
                     _ => unreachable!(),
@@ -161,7 +176,7 @@ impl Analysis {
                 }
                 if overlap > 0.0 {
                     c.max_overlap = c.max_overlap.max(overlap);
-                    c.max_force = c.max_force.max(p.force[i].dot(&c.n).abs());
+                    c.max_force = c.max_force.max(a.force.dot(&c.n).abs());
                 }
                 c.prev = Some((t, overlap));
             }
@@ -204,12 +219,13 @@ impl Analysis {
     }
 
     /// The figures for `summary.json`.
-    pub fn figures(&self, st: &State) -> Map<String, Value> {
+    pub fn figures(&self, tracked: &[Option<Record>]) -> Map<String, Value> {
         let mut m = Map::new();
         match self {
             Analysis::None => {}
             Analysis::Collision(c) => {
-                let v_out = relative_velocity(&st.p, c.particle, c.partner);
+                let (a, b) = pair_of(tracked);
+                let v_out = a.vel - b.map(|b| b.vel).unwrap_or_else(Vec3::zeros);
                 let vn_in = c.v_in.dot(&c.n);
                 let vn_out = v_out.dot(&c.n);
                 m.insert("restitution".into(), json!(-vn_out / vn_in));
@@ -228,7 +244,7 @@ impl Analysis {
                     if vt_in != 0.0 { json!(vt_out / vt_in) } else { Value::Null },
                 );
                 let axis = c.n.cross(&c.t);
-                m.insert("spin_rad_s".into(), json!(st.p.omega[c.particle].dot(&axis)));
+                m.insert("spin_rad_s".into(), json!(a.omega.dot(&axis)));
                 let impact_angle = c.v_in.dot(&c.t).atan2(-vn_in).to_degrees();
                 m.insert("impact_angle_deg".into(), json!(impact_angle));
             }

@@ -29,6 +29,8 @@ pub struct Case {
     pub output: OutputSection,
     #[serde(default)]
     pub analysis: Option<AnalysisSection>,
+    #[serde(default)]
+    pub parallel: ParallelSection,
     /// Folder of the case file; relative paths in the case are taken from here.
     #[serde(skip)]
     pub dir: PathBuf,
@@ -191,6 +193,42 @@ pub struct PhaseSection {
     pub remove_walls_at_end: Vec<String>,
 }
 
+/// `[parallel]`: how the domain is cut among MPI ranks and kept balanced.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParallelSection {
+    /// Boxes along x, y, z (their product must be the number of ranks);
+    /// default: the grid with the least cut area for the domain's shape.
+    pub grid: Option<[usize; 3]>,
+    /// `off`, `count`, `time` (the paper's measured load) or `contacts`.
+    #[serde(default)]
+    pub balance: crate::parallel::BalanceMode,
+    /// Rebalance when a subdomain's estimated load departs from the mean by more than this (%).
+    #[serde(default = "default_imbalance_percent")]
+    pub imbalance_percent: f64,
+    /// Steps between load checks.
+    #[serde(default = "default_balance_interval")]
+    pub balance_interval: u64,
+}
+
+fn default_imbalance_percent() -> f64 {
+    5.0
+}
+fn default_balance_interval() -> u64 {
+    200
+}
+
+impl Default for ParallelSection {
+    fn default() -> Self {
+        ParallelSection {
+            grid: None,
+            balance: Default::default(),
+            imbalance_percent: default_imbalance_percent(),
+            balance_interval: default_balance_interval(),
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSection {
@@ -312,6 +350,18 @@ impl Case {
                 ));
             }
             _ => {}
+        }
+        let par = &self.parallel;
+        if !(par.imbalance_percent.is_finite() && par.imbalance_percent > 0.0) {
+            return Err(self.err("parallel.imbalance_percent", par.imbalance_percent, "must be a positive percentage"));
+        }
+        if par.balance_interval == 0 {
+            return Err(self.err("parallel.balance_interval", 0, "must be at least 1 step"));
+        }
+        if let Some(g) = par.grid {
+            if g.iter().any(|&n| n == 0) {
+                return Err(self.err("parallel.grid", format!("{g:?}"), "every count must be at least 1"));
+            }
         }
         if let Some(sk) = s.skin {
             if !(sk.is_finite() && sk > 0.0) {

@@ -9,6 +9,7 @@ use crate::contact::{
     ShearKinematics, TangentialOptions,
 };
 use crate::dim::Vec3;
+use crate::parallel::comm::{from_fixed, to_fixed};
 use crate::material::PairTable;
 use crate::neighbor::NeighborList;
 use crate::particles::Particles;
@@ -35,15 +36,27 @@ pub struct SweepSettings {
     pub wall_arm_overlap: f64,
 }
 
-/// Compute forces and torques on all particles and the load on every wall.
-/// Returns the number of touching contacts.
+/// Touching contacts found by a sweep.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ContactCount {
+    /// Contacts this rank owns: pairs whose lower-id particle is owned, and
+    /// wall contacts (each contact is owned by exactly one rank).
+    pub owned: usize,
+    /// Contacts this rank evaluated (pairs across a subdomain boundary are
+    /// evaluated on both sides): the work counter.
+    pub evaluated: usize,
+}
+
+/// Compute forces and torques on the owned particles and this rank's part of
+/// the load on every wall (`Wall::load`; `force` and `torque` are set from it
+/// here, which for a single rank is the whole load).
 pub fn compute_forces(
     s: &SweepSettings,
     p: &mut Particles,
     walls: &mut [Wall],
     nl: &mut NeighborList,
     table: &PairTable,
-) -> usize {
+) -> ContactCount {
     match s.model {
         ContactModel::Hooke(l) => sweep(l, s, p, walls, nl, table),
         ContactModel::Hertz(l) => sweep(l, s, p, walls, nl, table),
@@ -57,13 +70,14 @@ fn sweep<L: NormalLaw>(
     walls: &mut [Wall],
     nl: &mut NeighborList,
     table: &PairTable,
-) -> usize {
-    let n = p.len();
-    for i in 0..n {
+) -> ContactCount {
+    for i in 0..p.len() {
         p.force[i] = s.gravity * p.mass[i];
         p.torque[i] = Vec3::zeros();
     }
     let mut contacts = 0usize;
+    let mut owned_pairs = 0usize;
+    let n_own = p.owned();
     for (k, &(a, b)) in nl.pairs.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
         let d = p.pos[a] - p.pos[b];
@@ -77,6 +91,7 @@ fn sweep<L: NormalLaw>(
             continue;
         }
         contacts += 1;
+        owned_pairs += (a < n_own) as usize;
         let dist = dist2.sqrt();
         let nrm = d * (1.0 / dist);
         let overlap = rsum - dist;
@@ -98,11 +113,11 @@ fn sweep<L: NormalLaw>(
         p.torque[b] += tb;
     }
     for w in walls.iter_mut() {
-        w.force = Vec3::zeros();
-        w.torque = Vec3::zeros();
+        w.load = [0; 6];
     }
+    let mut wall_contacts = 0usize;
     let mut hits: Vec<Option<WallHit>> = Vec::with_capacity(16);
-    for i in 0..n {
+    for i in 0..n_own {
         let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
         if lo == hi {
             continue;
@@ -124,7 +139,7 @@ fn sweep<L: NormalLaw>(
                 continue;
             };
             let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
-            contacts += 1;
+            wall_contacts += 1;
             let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - s.wall_arm_overlap * hit.overlap, arm_j: 0.0 };
             let pi = PairInertia::wall(p.radius[i], p.mass[i]);
             let pm = table.get(p.material[i], wall.material);
@@ -139,10 +154,17 @@ fn sweep<L: NormalLaw>(
             let (ti, _) = torques(&g, c.force);
             p.force[i] += c.force;
             p.torque[i] += ti;
-            wall.force -= c.force;
             // the force acts at the same point as on the particle (arm r - delta/2)
-            wall.torque -= (p.pos[i] - hit.n * g.arm_i).cross(&c.force);
+            let t = (p.pos[i] - hit.n * g.arm_i).cross(&c.force);
+            for k in 0..3 {
+                wall.load[k] -= to_fixed(c.force[k]);
+                wall.load[3 + k] -= to_fixed(t[k]);
+            }
         }
     }
-    contacts
+    for w in walls.iter_mut() {
+        w.force = Vec3::new(from_fixed(w.load[0]), from_fixed(w.load[1]), from_fixed(w.load[2]));
+        w.torque = Vec3::new(from_fixed(w.load[3]), from_fixed(w.load[4]), from_fixed(w.load[5]));
+    }
+    ContactCount { owned: owned_pairs + wall_contacts, evaluated: contacts + wall_contacts }
 }

@@ -23,7 +23,7 @@ pub enum IntegratorKind {
 /// Velocity Verlet: first half (kick and drift).
 pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
     let h = 0.5 * dt;
-    for i in 0..p.len() {
+    for i in 0..p.owned() {
         p.vel[i] = dim.project_linear(p.vel[i] + p.force[i] * (h * p.inv_mass[i]));
         p.omega[i] = dim.project_angular(p.omega[i] + p.torque[i] * (h * p.inv_inertia[i]));
         p.pos[i] += p.vel[i] * dt;
@@ -33,7 +33,7 @@ pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
 /// Velocity Verlet: second half kick, after the forces.
 pub fn verlet_second(p: &mut Particles, dt: f64, dim: Dimension) {
     let h = 0.5 * dt;
-    for i in 0..p.len() {
+    for i in 0..p.owned() {
         p.vel[i] = dim.project_linear(p.vel[i] + p.force[i] * (h * p.inv_mass[i]));
         p.omega[i] = dim.project_angular(p.omega[i] + p.torque[i] * (h * p.inv_inertia[i]));
     }
@@ -60,9 +60,28 @@ const BINOM: [[f64; 6]; 6] = [
 ];
 
 impl GearState {
+    /// One particle's derivatives (12 vectors), for migration and checkpoints.
+    pub fn get(&self, i: usize) -> Vec<Vec3> {
+        if !self.initialised {
+            return Vec::new();
+        }
+        (0..6).map(|k| self.r[k][i]).chain((0..6).map(|k| self.w[k][i])).collect()
+    }
+
+    /// Rebuild the arrays from per-particle derivatives (as `get` returns them).
+    pub fn set_all(&mut self, rows: &[Vec<Vec3>]) {
+        if !self.initialised {
+            return;
+        }
+        for k in 0..6 {
+            self.r[k] = rows.iter().map(|d| d[k]).collect();
+            self.w[k] = rows.iter().map(|d| d[6 + k]).collect();
+        }
+    }
+
     /// Set the derivatives from the particles' state and current forces.
     pub fn init(&mut self, p: &Particles, dt: f64, dim: Dimension) {
-        let n = p.len();
+        let n = p.owned();
         for k in 0..6 {
             self.r[k] = vec![Vec3::zeros(); n];
             self.w[k] = vec![Vec3::zeros(); n];
@@ -81,7 +100,7 @@ impl GearState {
     /// position, velocity and spin into the particle arrays.
     pub fn predict(&mut self, p: &mut Particles, dt: f64) {
         for arr in [&mut self.r, &mut self.w] {
-            for i in 0..p.len() {
+            for i in 0..p.owned() {
                 let mut v = [Vec3::zeros(); 6];
                 for k in 0..6 {
                     v[k] = arr[k][i];
@@ -96,7 +115,7 @@ impl GearState {
             }
         }
         let inv = 1.0 / dt;
-        for i in 0..p.len() {
+        for i in 0..p.owned() {
             p.pos[i] = self.r[0][i];
             p.vel[i] = self.r[1][i] * inv;
             p.omega[i] = self.w[0][i];
@@ -106,7 +125,7 @@ impl GearState {
     /// Corrector: compare the predicted acceleration with the one from the forces.
     pub fn correct(&mut self, p: &mut Particles, dt: f64, dim: Dimension) {
         let inv = 1.0 / dt;
-        for i in 0..p.len() {
+        for i in 0..p.owned() {
             let dx = dim.project_linear(p.force[i] * (0.5 * dt * dt * p.inv_mass[i]) - self.r[2][i]);
             for k in 0..6 {
                 self.r[k][i] += dx * GEAR_X[k];

@@ -11,6 +11,7 @@ pub mod generate;
 pub mod integrate;
 pub mod material;
 pub mod neighbor;
+pub mod parallel;
 pub mod output;
 pub mod particles;
 pub mod run;

@@ -4,7 +4,9 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use talus::case::Case;
-use talus::run::{run, RunOptions};
+use std::rc::Rc;
+use talus::parallel::comm::Comm;
+use talus::run::{run_on, RunOptions};
 use talus::TalusError;
 
 #[derive(Parser)]
@@ -45,27 +47,46 @@ enum Cmd {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match real_main(cli) {
+    // MPI only when started by mpirun (P = 1 runs without it)
+    let comm = Rc::new(if matches!(cli.cmd, Cmd::Run { .. }) { Comm::init() } else { Comm::Serial });
+    let (rank, size) = (comm.rank(), comm.size());
+    if size > 1 {
+        // a rank that panics ends the whole job, naming itself and the cause
+        std::panic::set_hook(Box::new(move |info| {
+            eprintln!("talus: rank {rank} of {size} failed: {info}; ending the job");
+            unsafe {
+                mpi::ffi::MPI_Abort(mpi::ffi::RSMPI_COMM_WORLD, 70);
+            }
+        }));
+    }
+    let result = real_main(cli, comm);
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("talus: error: {e}");
+            // errors are collective (every rank has the same message); rank 0 prints it
+            if rank == 0 {
+                eprintln!("talus: error: {e}");
+            }
             ExitCode::FAILURE
         }
     }
 }
 
-fn real_main(cli: Cli) -> Result<(), TalusError> {
+fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
     match cli.cmd {
         Cmd::Run { case, out, steps, restart, quiet } => {
+            let root = comm.is_root();
             let c = Case::load(&case)?;
             let out = out.unwrap_or_else(|| {
                 PathBuf::from("out").join(case.file_stem().map(|s| s.to_os_string()).unwrap_or_default())
             });
             let opts = RunOptions { out: out.clone(), max_steps: steps, restart, progress: !quiet };
-            let r = run(c, &opts)?;
-            println!("talus: {} finished; outputs in {}", case.display(), out.display());
-            for (k, v) in &r.summary {
-                println!("  {k:<32} {v}");
+            let r = run_on(c, &opts, comm)?;
+            if root {
+                println!("talus: {} finished; outputs in {}", case.display(), out.display());
+                for (k, v) in &r.summary {
+                    println!("  {k:<32} {v}");
+                }
             }
             Ok(())
         }

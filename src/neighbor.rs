@@ -20,6 +20,25 @@ pub struct Domain {
     pub hi: Vec3,
 }
 
+/// Contact history keyed by global ids: pairs (id_a < id_b) and particle-wall
+/// features (id, wall, feature), each sorted by key. This is what migrates with
+/// particles between ranks and what a checkpoint stores.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct History {
+    pub pairs: Vec<((u64, u64), Vec3)>,
+    pub walls: Vec<((u64, u16, u32), Vec3)>,
+}
+
+impl History {
+    /// Sort by key and drop repeated keys (a pair shared by two ranks arrives twice, with equal values).
+    pub fn normalise(&mut self) {
+        self.pairs.sort_unstable_by_key(|x| x.0);
+        self.pairs.dedup_by_key(|x| x.0);
+        self.walls.sort_unstable_by_key(|x| x.0);
+        self.walls.dedup_by_key(|x| x.0);
+    }
+}
+
 /// Candidate particle pairs and particle-wall features with their contact history.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct NeighborList {
@@ -51,47 +70,78 @@ impl NeighborList {
     /// particle-wall contact can then have been missed). Also checks that every
     /// particle is finite and inside the domain.
     pub fn needs_rebuild(&self, p: &Particles, domain: &Domain) -> Result<bool, TalusError> {
-        if self.x_ref.len() != p.len() {
-            return Ok(true);
-        }
-        let mut max2: f64 = 0.0;
-        for i in 0..p.len() {
+        Ok(self.displacement(p, domain)? + self.wall_moved > 0.5 * self.skin)
+    }
+
+    /// Largest displacement of an owned particle since the last build (infinite
+    /// if the particle set changed); checks that each is finite and in the domain.
+    pub fn displacement(&self, p: &Particles, domain: &Domain) -> Result<f64, TalusError> {
+        let mut max2: f64 = if self.x_ref.len() != p.owned() { f64::INFINITY } else { 0.0 };
+        for i in 0..p.owned() {
             let x = &p.pos[i];
-            max2 = max2.max((x - self.x_ref[i]).norm_squared());
+            if let Some(r) = self.x_ref.get(i) {
+                max2 = max2.max((x - r).norm_squared());
+            }
             if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
                 || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
             {
                 return Err(particle_error(p, i, domain));
             }
         }
-        Ok(max2.sqrt() + self.wall_moved > 0.5 * self.skin)
+        Ok(max2.sqrt())
     }
 
-    /// Rebuild the lists, carrying contact history over by global ids.
-    pub fn build(&mut self, p: &Particles, walls: &[Wall], domain: &Domain) -> Result<(), TalusError> {
-        let n = p.len();
-        // old non-zero history keyed by global ids, sorted by key
-        let mut old_pair: Vec<((u64, u64), Vec3)> = Vec::new();
+    /// The non-zero contact history keyed by global ids, sorted by key.
+    pub fn take_history(&self, p: &Particles) -> History {
+        let mut h = History::default();
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
             if self.pair_hist[k] != Vec3::zeros() {
-                old_pair.push(((p.id[a as usize], p.id[b as usize]), self.pair_hist[k]));
+                h.pairs.push(((p.id[a as usize], p.id[b as usize]), self.pair_hist[k]));
             }
         }
-        old_pair.sort_unstable_by_key(|x| x.0);
-        let mut old_wall: Vec<((u64, u16, u32), Vec3)> = Vec::new();
-        for i in 0..self.wall_start.len().saturating_sub(1).min(n) {
+        h.pairs.sort_unstable_by_key(|x| x.0);
+        for i in 0..self.wall_start.len().saturating_sub(1).min(p.len()) {
             for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
                 if self.wall_hist[k] != Vec3::zeros() {
                     let (w, f) = self.wall_feat[k];
-                    old_wall.push(((p.id[i], w, f), self.wall_hist[k]));
+                    h.walls.push(((p.id[i], w, f), self.wall_hist[k]));
                 }
             }
         }
-        old_wall.sort_unstable_by_key(|x| x.0);
+        h.walls.sort_unstable_by_key(|x| x.0);
+        h
+    }
+
+    /// Rebuild the lists, carrying contact history over by global ids.
+    pub fn build(&mut self, p: &Particles, walls: &[Wall]) {
+        let h = self.take_history(p);
+        self.build_with(p, walls, &h);
+    }
+
+    /// Rebuild the lists from particle positions, taking contact history from
+    /// `hist` (sorted by key). Pairs: every pair within reach of which at least
+    /// one particle is owned (ghosts are the particles after `p.owned()`); wall
+    /// candidates: owned particles only.
+    pub fn build_with(&mut self, p: &Particles, walls: &[Wall], hist: &History) {
+        let n = p.len();
+        let n_own = p.owned();
+        let old_pair = &hist.pairs;
+        let old_wall = &hist.walls;
         let mut cursor = 0usize;
 
         let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
-        let ext = domain.hi - domain.lo;
+        // the grid spans the particles' bounding box
+        let mut lo = Vec3::repeat(f64::INFINITY);
+        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
+        for x in &p.pos {
+            lo = lo.inf(x);
+            hi = hi.sup(x);
+        }
+        if n == 0 {
+            lo = Vec3::zeros();
+            hi = Vec3::zeros();
+        }
+        let ext = (hi - lo).add_scalar(1e-9);
         // cells no smaller than the interaction range, and at most 64 per particle
         // (a huge domain with few particles must not allocate a huge grid)
         let cap = (ext.x * ext.y * ext.z / (64.0 * n.max(1024) as f64)).cbrt();
@@ -101,7 +151,7 @@ impl NeighborList {
         let cell_of = |x: &Vec3| -> usize {
             let mut c = [0usize; 3];
             for k in 0..3 {
-                let f = ((x[k] - domain.lo[k]) / ext[k] * dims[k] as f64).floor();
+                let f = ((x[k] - lo[k]) / ext[k] * dims[k] as f64).floor();
                 c[k] = (f.max(0.0) as usize).min(dims[k] - 1);
             }
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
@@ -138,6 +188,8 @@ impl NeighborList {
             let xa = p.pos[a];
             let ra = p.radius[a];
             let ida = p.id[a];
+            // a ghost pairs only with owned particles
+            let ghost_a = a >= n_own;
             let c = cells[a];
             let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
             row.clear();
@@ -152,7 +204,7 @@ impl NeighborList {
                         let cut = ra + q[3];
                         // one rarely-taken branch (`&`, not `&&`): the id test alone
                         // would be a coin flip for the branch predictor
-                        if (idb > ida) & (dx * dx + dy * dy + dz * dz < cut * cut) {
+                        if (idb > ida) & (dx * dx + dy * dy + dz * dz < cut * cut) & !(ghost_a & (b as usize >= n_own)) {
                             row.push((idb, b));
                         }
                     }
@@ -178,7 +230,7 @@ impl NeighborList {
         self.wall_feat.clear();
         self.wall_hist.clear();
         let mut feats = Vec::new();
-        for i in 0..n {
+        for i in 0..n_own {
             self.wall_start.push(self.wall_feat.len() as u32);
             for (w, wall) in walls.iter().enumerate() {
                 if !wall.active {
@@ -196,10 +248,9 @@ impl NeighborList {
         }
         self.wall_start.push(self.wall_feat.len() as u32);
         self.x_ref.clear();
-        self.x_ref.extend_from_slice(&p.pos);
+        self.x_ref.extend_from_slice(&p.pos[..n_own]);
         self.wall_moved = 0.0;
         self.builds += 1;
-        Ok(())
     }
 }
 

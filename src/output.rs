@@ -2,30 +2,37 @@
 //! that ParaView opens, checkpoints (bincode of the whole state), summary.json.
 
 use crate::error::TalusError;
+use crate::integrate::GearState;
+use crate::neighbor::{History, NeighborList};
+use crate::particles::{Particles, Record};
 use crate::sim::{Simulation, State};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The probe CSV writer.
+/// The probe CSV writer. Every rank calls `create` and `write` (the values
+/// are sums over ranks); rank 0 writes the file.
 pub struct Probes {
-    out: std::io::BufWriter<std::fs::File>,
+    out: Option<std::io::BufWriter<std::fs::File>>,
     mass_below_z: Option<f64>,
-    track: Vec<(u64, usize)>,
+    track: Vec<u64>,
 }
 
 impl Probes {
     pub fn create(dir: &Path, sim: &Simulation) -> Result<Probes, TalusError> {
+        let o = &sim.case.output;
+        let found = sim.tracked(&o.track);
+        for (&id, r) in o.track.iter().zip(&found) {
+            if r.is_none() {
+                return Err(TalusError::Input(format!("{}: output.track: no particle with id {id}", sim.case.path.display())));
+            }
+        }
+        let track = o.track.clone();
+        if !sim.par.comm.is_root() {
+            return Ok(Probes { out: None, mass_below_z: o.mass_below_z, track });
+        }
         let path = dir.join("probes.csv");
         let f = std::fs::File::create(&path).map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e))?;
         let mut out = std::io::BufWriter::new(f);
-        let o = &sim.case.output;
-        let mut track = Vec::new();
-        for &id in &o.track {
-            let i = sim.state.p.index_of(id).ok_or_else(|| {
-                TalusError::Input(format!("{}: output.track: no particle with id {id}", sim.case.path.display()))
-            })?;
-            track.push((id, i));
-        }
         let mut h = String::from("time_s,step,phase,kinetic_energy_j,contacts");
         for w in &sim.state.walls {
             for c in ["x", "y", "z"] {
@@ -38,7 +45,7 @@ impl Probes {
         if o.mass_below_z.is_some() {
             h.push_str(",mass_below_kg");
         }
-        for (id, _) in &track {
+        for id in &track {
             for q in [
                 "x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "wx_rad_s", "wy_rad_s", "wz_rad_s", "fx_n", "fy_n",
                 "fz_n",
@@ -47,18 +54,19 @@ impl Probes {
             }
         }
         writeln!(out, "{h}").map_err(|e| TalusError::io("probes.csv", e))?;
-        Ok(Probes { out, mass_below_z: o.mass_below_z, track })
+        Ok(Probes { out: Some(out), mass_below_z: o.mass_below_z, track })
     }
 
-    /// Mass of particles with centre below z.
-    pub fn mass_below(st: &State, z: f64) -> f64 {
-        (0..st.p.len()).filter(|&i| st.p.pos[i].z < z).map(|i| st.p.mass[i]).sum()
-    }
-
+    /// A collective: every rank calls it; returns the mass below the probe plane.
     pub fn write(&mut self, sim: &Simulation) -> Result<Option<f64>, TalusError> {
         let st = &sim.state;
         let phase = sim.case.phases.get(st.phase).map(|p| p.name.as_str()).unwrap_or("end");
-        let mut line = format!("{:.9e},{},{},{:.9e},{}", st.time, st.step, phase, st.p.kinetic_energy(), st.contacts);
+        let ke = sim.kinetic_energy();
+        let contacts = sim.contacts();
+        let mb = self.mass_below_z.map(|z| sim.mass_below(z));
+        let tracked = if self.track.is_empty() { Vec::new() } else { sim.tracked(&self.track) };
+        let Some(out) = self.out.as_mut() else { return Ok(mb) };
+        let mut line = format!("{:.9e},{},{},{:.9e},{}", st.time, st.step, phase, ke, contacts);
         for w in &st.walls {
             for v in [w.force, w.torque] {
                 for k in 0..3 {
@@ -66,23 +74,25 @@ impl Probes {
                 }
             }
         }
-        let mb = self.mass_below_z.map(|z| Probes::mass_below(st, z));
         if let Some(m) = mb {
             line.push_str(&format!(",{m:.9e}"));
         }
-        for &(_, i) in &self.track {
-            for v in [st.p.pos[i], st.p.vel[i], st.p.omega[i], st.p.force[i]] {
+        for r in tracked.iter().flatten() {
+            for v in [r.pos, r.vel, r.omega, r.force] {
                 for k in 0..3 {
                     line.push_str(&format!(",{:e}", v[k]));
                 }
             }
         }
-        writeln!(self.out, "{line}").map_err(|e| TalusError::io("probes.csv", e))?;
+        writeln!(out, "{line}").map_err(|e| TalusError::io("probes.csv", e))?;
         Ok(mb)
     }
 
     pub fn flush(&mut self) -> Result<(), TalusError> {
-        self.out.flush().map_err(|e| TalusError::io("probes.csv", e))
+        match self.out.as_mut() {
+            Some(o) => o.flush().map_err(|e| TalusError::io("probes.csv", e)),
+            None => Ok(()),
+        }
     }
 }
 
@@ -102,17 +112,22 @@ impl Snapshots {
         Ok(Snapshots { h5, xdmf: dir.join("snapshots.xdmf"), file, entries: Vec::new() })
     }
 
-    pub fn write(&mut self, st: &State) -> Result<(), TalusError> {
+    /// Write every particle (gathered from all ranks, in id order) as one snapshot.
+    pub fn write(&mut self, st: &State, recs: &[Record]) -> Result<(), TalusError> {
         let name = format!("step_{:09}", st.step);
         let err = |e: hdf5_metno::Error| TalusError::Run(format!("writing {}: {e}", self.h5.display()));
         let g = self.file.create_group(&name).map_err(err)?;
-        let n = st.p.len();
-        let vec3 = |v: &[crate::dim::Vec3]| -> Vec<f64> { v.iter().flat_map(|x| [x.x, x.y, x.z]).collect() };
-        for (label, data) in [("position", vec3(&st.p.pos)), ("velocity", vec3(&st.p.vel)), ("spin", vec3(&st.p.omega))] {
+        let n = recs.len();
+        let vec3 = |f: &dyn Fn(&Record) -> crate::dim::Vec3| -> Vec<f64> {
+            recs.iter().flat_map(|r| { let x = f(r); [x.x, x.y, x.z] }).collect()
+        };
+        for (label, data) in [("position", vec3(&|r| r.pos)), ("velocity", vec3(&|r| r.vel)), ("spin", vec3(&|r| r.omega))] {
             g.new_dataset::<f64>().shape((n, 3)).create(label).map_err(err)?.write_raw(&data).map_err(err)?;
         }
-        g.new_dataset::<f64>().shape(n).create("radius").map_err(err)?.write_raw(&st.p.radius).map_err(err)?;
-        g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&st.p.id).map_err(err)?;
+        let radius: Vec<f64> = recs.iter().map(|r| r.radius).collect();
+        let id: Vec<u64> = recs.iter().map(|r| r.id).collect();
+        g.new_dataset::<f64>().shape(n).create("radius").map_err(err)?.write_raw(&radius).map_err(err)?;
+        g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&id).map_err(err)?;
         self.file.flush().map_err(err)?;
         self.entries.push((name, st.time, n));
         self.write_xdmf().map_err(|e| TalusError::io(format!("writing {}", self.xdmf.display()), e))
@@ -141,11 +156,16 @@ impl Snapshots {
     }
 }
 
-/// A checkpoint: the case text's hash and the whole state.
+/// A checkpoint: the case text's hash and the whole state of all ranks, as
+/// one serial state (every particle in id order, the contact history keyed by
+/// ids), so that a run restarts from it on any number of ranks.
 #[derive(serde::Serialize, serde::Deserialize)]
 pub struct Checkpoint {
     pub case_hash: u64,
+    /// Ranks of the run that wrote it (for information).
+    pub ranks: usize,
     pub state: State,
+    pub history: History,
 }
 
 pub fn case_hash(sim: &Simulation) -> u64 {
@@ -153,14 +173,44 @@ pub fn case_hash(sim: &Simulation) -> u64 {
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
+/// All ranks write one checkpoint together (a collective: gathered, rank 0 writes).
 pub fn write_checkpoint(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
-    let ck = Checkpoint { case_hash: case_hash(sim), state: sim.state.clone() };
-    let f = std::fs::File::create(path).map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e))?;
-    bincode::serialize_into(std::io::BufWriter::new(f), &ck)
-        .map_err(|e| TalusError::Run(format!("writing checkpoint {}: {e}", path.display())))
+    let st = &sim.state;
+    let (recs, rows) = sim.par.gather_all(&st.p, &st.gear);
+    let history = sim.par.gather_history(st.nl.take_history(&st.p));
+    let result = if sim.par.comm.is_root() {
+        let mut gear = GearState { initialised: st.gear.initialised, ..Default::default() };
+        gear.set_all(&rows);
+        let state = State {
+            p: Particles::from_records(&recs),
+            walls: st.walls.clone(),
+            nl: NeighborList { skin: st.nl.skin, builds: st.nl.builds, ..Default::default() },
+            gear,
+            time: st.time,
+            step: st.step,
+            phase: st.phase,
+            phase_start: st.phase_start,
+            settle_end: st.settle_end,
+            pe0: st.pe0,
+            forces_ready: st.forces_ready,
+            contacts: st.contacts,
+            analysis: st.analysis.clone(),
+        };
+        let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.par.size(), state, history };
+        std::fs::File::create(path)
+            .map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e))
+            .and_then(|f| {
+                bincode::serialize_into(std::io::BufWriter::new(f), &ck)
+                    .map_err(|e| TalusError::Run(format!("writing checkpoint {}: {e}", path.display())))
+            })
+    } else {
+        Ok(())
+    };
+    sim.par.collective(result)
 }
 
-/// Replace the simulation's state by a checkpoint's; refuse one written for another case.
+/// Replace the simulation's state by a checkpoint's (every rank reads the file
+/// and keeps its own particles); refuse one written for another case.
 pub fn read_checkpoint(sim: &mut Simulation, path: &Path) -> Result<(), TalusError> {
     let f = std::fs::File::open(path).map_err(|e| TalusError::io(format!("cannot open checkpoint {}", path.display()), e))?;
     let ck: Checkpoint = bincode::deserialize_from(std::io::BufReader::new(f))
@@ -172,9 +222,15 @@ pub fn read_checkpoint(sim: &mut Simulation, path: &Path) -> Result<(), TalusErr
             sim.case.path.display()
         )));
     }
-    if ck.state.p.len() != sim.state.p.len() {
+    if ck.state.p.len() as u64 != sim.particle_count() {
         return Err(TalusError::Input(format!("{}: particle count differs from the case", path.display())));
     }
-    sim.state = ck.state;
+    let mut st = ck.state;
+    let mut hist = ck.history;
+    sim.par.refit_all(&st.p.pos);
+    sim.par.take_own(&mut st.p, &mut st.gear, &mut hist);
+    let hist = sim.par.migrate(&mut st.p, &mut st.gear, hist);
+    st.nl.build_with(&st.p, &st.walls, &hist);
+    sim.state = st;
     Ok(())
 }

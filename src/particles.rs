@@ -5,6 +5,7 @@
 //! with MPI, owned particles come first and ghosts after.
 
 use crate::dim::Vec3;
+use crate::parallel::comm::{from_fixed, to_fixed};
 use serde::{Deserialize, Serialize};
 
 /// Spheres (3D) or discs (2D), one entry per particle in each array.
@@ -25,6 +26,26 @@ pub struct Particles {
     pub inv_inertia: Vec<f64>,
     /// Material index into the case's material list.
     pub material: Vec<u16>,
+    /// The last `ghosts` entries are copies of particles owned by other ranks.
+    #[serde(default)]
+    pub ghosts: usize,
+}
+
+/// One particle's full record: what migrates to another rank, what a ghost is
+/// made from, and what a checkpoint stores.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Record {
+    pub id: u64,
+    pub pos: Vec3,
+    pub vel: Vec3,
+    pub omega: Vec3,
+    pub force: Vec3,
+    pub torque: Vec3,
+    pub radius: f64,
+    pub mass: f64,
+    pub inv_mass: f64,
+    pub inv_inertia: f64,
+    pub material: u16,
 }
 
 /// One particle as read from input, before it enters the arrays.
@@ -44,6 +65,60 @@ impl Particles {
     pub fn is_empty(&self) -> bool {
         self.id.is_empty()
     }
+    /// Number of particles this rank owns (they come first).
+    #[inline(always)]
+    pub fn owned(&self) -> usize {
+        self.id.len() - self.ghosts
+    }
+
+    pub fn record(&self, i: usize) -> Record {
+        Record {
+            id: self.id[i],
+            pos: self.pos[i],
+            vel: self.vel[i],
+            omega: self.omega[i],
+            force: self.force[i],
+            torque: self.torque[i],
+            radius: self.radius[i],
+            mass: self.mass[i],
+            inv_mass: self.inv_mass[i],
+            inv_inertia: self.inv_inertia[i],
+            material: self.material[i],
+        }
+    }
+
+    pub fn push_record(&mut self, r: &Record) {
+        self.id.push(r.id);
+        self.pos.push(r.pos);
+        self.vel.push(r.vel);
+        self.omega.push(r.omega);
+        self.force.push(r.force);
+        self.torque.push(r.torque);
+        self.radius.push(r.radius);
+        self.mass.push(r.mass);
+        self.inv_mass.push(r.inv_mass);
+        self.inv_inertia.push(r.inv_inertia);
+        self.material.push(r.material);
+    }
+
+    /// Particles made of records (all owned).
+    pub fn from_records(recs: &[Record]) -> Particles {
+        let mut p = Particles::default();
+        for r in recs {
+            p.push_record(r);
+        }
+        p
+    }
+
+    /// Drop the ghosts.
+    pub fn drop_ghosts(&mut self) {
+        let n = self.owned();
+        macro_rules! cut {
+            ($($f:ident),*) => { $( self.$f.truncate(n); )* };
+        }
+        cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material);
+        self.ghosts = 0;
+    }
 
     /// Add a sphere of the given density and material index.
     pub fn push_sphere(&mut self, p: &ParticleInit, density: f64, material: u16) {
@@ -62,10 +137,16 @@ impl Particles {
         self.material.push(material);
     }
 
-    /// Sort every array by global id (stable local order).
+    /// Sort every array by global id (stable local order); no ghosts.
     pub fn sort_by_id(&mut self) {
         let mut perm: Vec<usize> = (0..self.len()).collect();
         perm.sort_by_key(|&i| self.id[i]);
+        self.permute(&perm);
+    }
+
+    /// Reorder (or select) particles: entry k becomes old entry perm[k]. Ghosts are dropped.
+    pub fn permute(&mut self, perm: &[usize]) {
+        self.ghosts = 0;
         macro_rules! permute {
             ($($f:ident),*) => { $( self.$f = perm.iter().map(|&i| self.$f[i]).collect(); )* };
         }
@@ -84,26 +165,35 @@ impl Particles {
         self.id.iter().position(|&x| x == id)
     }
 
-    /// Total kinetic energy, translational plus rotational (J).
-    pub fn kinetic_energy(&self) -> f64 {
-        let mut e = 0.0;
-        for i in 0..self.len() {
-            e += 0.5 * self.mass[i] * self.vel[i].norm_squared()
-                + 0.5 / self.inv_inertia[i] * self.omega[i].norm_squared();
-        }
-        e
+    /// Kinetic energy of the owned particles, translational plus rotational,
+    /// as an exact fixed-point sum (see `parallel::comm::to_fixed`).
+    pub fn kinetic_energy_fixed(&self) -> i128 {
+        (0..self.owned())
+            .map(|i| {
+                to_fixed(
+                    0.5 * self.mass[i] * self.vel[i].norm_squared()
+                        + 0.5 / self.inv_inertia[i] * self.omega[i].norm_squared(),
+                )
+            })
+            .sum()
     }
 
-    /// Potential energy in gravity g relative to the origin (J).
+    /// Potential energy of the owned particles in gravity g relative to the origin, fixed point.
+    pub fn potential_energy_fixed(&self, g: Vec3) -> i128 {
+        (0..self.owned()).map(|i| to_fixed(-self.mass[i] * g.dot(&self.pos[i]))).sum()
+    }
+
+    /// Kinetic energy of the owned particles (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        from_fixed(self.kinetic_energy_fixed())
+    }
+
+    /// Potential energy of the owned particles (J).
     pub fn potential_energy(&self, g: Vec3) -> f64 {
-        let mut e = 0.0;
-        for i in 0..self.len() {
-            e -= self.mass[i] * g.dot(&self.pos[i]);
-        }
-        e
+        from_fixed(self.potential_energy_fixed(g))
     }
 
     pub fn total_mass(&self) -> f64 {
-        self.mass.iter().sum()
+        self.mass[..self.owned()].iter().sum()
     }
 }

@@ -4,7 +4,10 @@
 use crate::case::Case;
 use crate::error::TalusError;
 use crate::output::{read_checkpoint, write_checkpoint, Probes, Snapshots};
+use crate::parallel::comm::Comm;
 use crate::sim::Simulation;
+use std::io::Write;
+use std::rc::Rc;
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -29,9 +32,14 @@ fn crossed(t_prev: f64, t: f64, interval: f64, dt: f64) -> bool {
     ((t + 0.5 * dt) / interval).floor() > ((t_prev + 0.5 * dt) / interval).floor()
 }
 
-/// Run a case into `opts.out`.
+/// Run a case into `opts.out` (serial).
 pub fn run(case: Case, opts: &RunOptions) -> Result<RunResult, TalusError> {
-    let mut sim = Simulation::new(case)?;
+    run_on(case, opts, Rc::new(Comm::Serial))
+}
+
+/// Run a case on a communicator (every rank calls this).
+pub fn run_on(case: Case, opts: &RunOptions, comm: Rc<Comm>) -> Result<RunResult, TalusError> {
+    let mut sim = Simulation::new_on(case, comm)?;
     if let Some(r) = &opts.restart {
         read_checkpoint(&mut sim, r)?;
     }
@@ -43,24 +51,31 @@ pub fn run(case: Case, opts: &RunOptions) -> Result<RunResult, TalusError> {
 /// and returns the summary.
 pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
     let out = &opts.out;
-    std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
-    let mut probes = Probes::create(out, sim)?;
-    let mut snaps = match sim.case.output.snapshot_interval {
-        Some(_) => Some(Snapshots::create(out)?),
-        None => None,
-    };
+    let root = sim.par.comm.is_root();
+    sim.par.collective(
+        std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e)),
+    )?;
+    let mut probes = sim.par.collective(Probes::create(out, sim))?;
+    let snaps = match (sim.case.output.snapshot_interval, root) {
+        (Some(_), true) => Some(Snapshots::create(out)),
+        _ => None,
+    }
+    .transpose();
+    let mut snaps = sim.par.collective(snaps)?;
+    let want_snaps = sim.case.output.snapshot_interval.is_some();
+    let mut ranks = RankLog::create(out, sim)?;
     let dt = sim.set.dt;
     let interval = sim.case.output.interval;
     sim.prepare()?;
     if sim.state.step == 0 {
-        probes.write(sim)?;
-        if let Some(s) = snaps.as_mut() {
-            s.write(&sim.state)?;
+        sim.par.collective(probes.write(sim))?;
+        if want_snaps {
+            write_snapshot(sim, &mut snaps)?;
         }
     }
-    let n = sim.state.p.len() as f64;
+    let n = sim.particle_count() as f64;
     let planned_steps = (sim.planned_time() / dt).ceil() as u64;
-    let bar = if opts.progress {
+    let bar = if opts.progress && root {
         let b = indicatif::ProgressBar::new(planned_steps);
         b.set_style(
             indicatif::ProgressStyle::with_template(
@@ -87,12 +102,15 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         }
         let t_prev = sim.state.time;
         if let Err(e) = sim.step() {
+            // every rank gets here at the same step (failures are agreed on
+            // collectively), so all write the checkpoint together
             let ck = out.join("failure_checkpoint.bin");
             let saved = match write_checkpoint(sim, &ck) {
-                Ok(()) => format!("checkpoint written to {}", ck.display()),
+                Ok(()) => format!("checkpoint of all ranks written to {}", ck.display()),
                 Err(w) => format!("no checkpoint: {w}"),
             };
             probes.flush()?;
+            ranks.flush()?;
             return Err(TalusError::Run(format!(
                 "run stopped at step {} (t = {:.6e} s): {e}; {saved}",
                 sim.state.step, sim.state.time
@@ -101,12 +119,13 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         steps += 1;
         let t = sim.state.time;
         if crossed(t_prev, t, interval, dt) {
-            let mb = probes.write(sim)?;
+            let mb = sim.par.collective(probes.write(sim))?;
             sim.state.analysis.sample(t, mb.unwrap_or(0.0));
+            ranks.write(sim)?;
         }
-        if let (Some(s), Some(iv)) = (snaps.as_mut(), sim.case.output.snapshot_interval) {
+        if let Some(iv) = sim.case.output.snapshot_interval {
             if crossed(t_prev, t, iv, dt) {
-                s.write(&sim.state)?;
+                write_snapshot(sim, &mut snaps)?;
             }
         }
         if let Some(iv) = sim.case.output.checkpoint_interval {
@@ -126,11 +145,19 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    probes.flush()?;
+    sim.par.collective(probes.flush())?;
+    ranks.flush()?;
     write_checkpoint(sim, &out.join("checkpoint.bin"))?;
     let mut summary = Map::new();
     summary.insert("case".into(), json!(sim.case.path.display().to_string()));
-    summary.insert("particles".into(), json!(sim.state.p.len()));
+    summary.insert("particles".into(), json!(n as u64));
+    summary.insert("ranks".into(), json!(sim.par.size()));
+    summary.insert("grid".into(), json!(sim.par.dec.grid()));
+    summary.insert("balance".into(), json!(sim.case.parallel.balance));
+    summary.insert("rebalances".into(), json!(sim.par.rebalances));
+    for (k, v) in ranks.summary(sim) {
+        summary.insert(k, v);
+    }
     summary.insert("steps".into(), json!(sim.state.step));
     summary.insert("steps_this_run".into(), json!(sim.state.step - first_step));
     summary.insert("time_s".into(), json!(sim.state.time));
@@ -143,13 +170,107 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         json!(if wall > 0.0 { n * steps as f64 / wall } else { 0.0 }),
     );
     summary.insert("state_hash".into(), json!(sim.state_hash()));
-    for (k, v) in sim.state.analysis.figures(&sim.state) {
+    let tracked = sim.tracked(&sim.state.analysis.ids());
+    for (k, v) in sim.state.analysis.figures(&tracked) {
         summary.insert(k, v);
     }
     let path = out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&summary).unwrap() + "\n")
-        .map_err(|e| TalusError::io(format!("writing {}", path.display()), e))?;
+    let written = if root {
+        std::fs::write(&path, serde_json::to_string_pretty(&summary).unwrap() + "\n")
+            .map_err(|e| TalusError::io(format!("writing {}", path.display()), e))
+    } else {
+        Ok(())
+    };
+    sim.par.collective(written)?;
     Ok(summary)
+}
+
+/// Gather every particle and let rank 0 write a snapshot (a collective).
+fn write_snapshot(sim: &Simulation, snaps: &mut Option<Snapshots>) -> Result<(), TalusError> {
+    let (recs, _) = sim.par.gather_all(&sim.state.p, &sim.state.gear);
+    let r = match snaps.as_mut() {
+        Some(s) => s.write(&sim.state, &recs),
+        None => Ok(()),
+    };
+    sim.par.collective(r)
+}
+
+/// Per-rank diagnostics (`ranks.csv`): at each output interval, every rank's
+/// owned particles, ghosts, contacts evaluated, compute and communication time
+/// over the interval, and the imbalance (max over mean) of compute time and of
+/// work (particles + contacts). Rank 0 writes; the means per phase go into the summary.
+struct RankLog {
+    out: Option<std::io::BufWriter<std::fs::File>>,
+    /// Per phase: (sum of time imbalance, sum of work imbalance, rows).
+    per_phase: Vec<(String, f64, f64, u64)>,
+}
+
+impl RankLog {
+    fn create(dir: &Path, sim: &Simulation) -> Result<RankLog, TalusError> {
+        let out = if sim.par.comm.is_root() {
+            let path = dir.join("ranks.csv");
+            let f = std::fs::File::create(&path).map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e));
+            let mut w = sim.par.collective(f).map(std::io::BufWriter::new)?;
+            writeln!(w, "time_s,step,phase,rank,owned,ghosts,contacts,compute_s,comm_s,imbalance_time,imbalance_work")
+                .map_err(|e| TalusError::io("ranks.csv", e))?;
+            Some(w)
+        } else {
+            sim.par.collective(Ok(()))?;
+            None
+        };
+        Ok(RankLog { out, per_phase: Vec::new() })
+    }
+
+    fn write(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
+        let c = sim.par.gather_counters(&sim.state.p);
+        let imb = |f: &dyn Fn(&crate::parallel::RankCounters) -> f64| {
+            let v: Vec<f64> = c.iter().map(f).collect();
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            if mean > 0.0 { v.iter().cloned().fold(0.0, f64::max) / mean } else { 1.0 }
+        };
+        let it = imb(&|r| r.compute_s);
+        let iw = imb(&|r| (r.owned + r.contacts) as f64);
+        let phase = sim.case.phases.get(sim.state.phase).map(|p| p.name.clone()).unwrap_or_else(|| "end".into());
+        match self.per_phase.iter_mut().find(|x| x.0 == phase) {
+            Some(e) => {
+                e.1 += it;
+                e.2 += iw;
+                e.3 += 1;
+            }
+            None => self.per_phase.push((phase.clone(), it, iw, 1)),
+        }
+        if let Some(w) = self.out.as_mut() {
+            for (r, x) in c.iter().enumerate() {
+                writeln!(
+                    w,
+                    "{:.9e},{},{phase},{r},{},{},{},{:.6e},{:.6e},{it:.5},{iw:.5}",
+                    sim.state.time, sim.state.step, x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
+                )
+                .map_err(|e| TalusError::io("ranks.csv", e))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), TalusError> {
+        match self.out.as_mut() {
+            Some(w) => w.flush().map_err(|e| TalusError::io("ranks.csv", e)),
+            None => Ok(()),
+        }
+    }
+
+    /// Mean imbalance per phase (max over mean across ranks, averaged over the output rows).
+    fn summary(&self, sim: &Simulation) -> Vec<(String, Value)> {
+        if sim.par.size() == 1 {
+            return Vec::new();
+        }
+        let mut v = Vec::new();
+        for (ph, it, iw, n) in &self.per_phase {
+            v.push((format!("imbalance_time_{ph}"), json!(it / *n as f64)));
+            v.push((format!("imbalance_work_{ph}"), json!(iw / *n as f64)));
+        }
+        v
+    }
 }
 
 /// Load a case file and run it.

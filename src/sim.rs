@@ -20,8 +20,13 @@ use crate::forces::{compute_forces, ContactModel, SweepSettings};
 use crate::generate;
 use crate::integrate::{self, GearState, IntegratorKind};
 use crate::material::{Mixing, PairTable};
-use crate::neighbor::{Domain, NeighborList};
-use crate::particles::Particles;
+use crate::neighbor::{Domain, History, NeighborList};
+use crate::parallel::comm::{from_fixed, to_fixed, Comm};
+use crate::parallel::decomp::{choose_grid, Decomposition};
+use crate::parallel::{BalanceSettings, Parallel};
+use crate::particles::{Particles, Record};
+use std::rc::Rc;
+use std::time::Instant;
 use crate::walls::{Mesh, Plane, Shape, Wall};
 use serde::{Deserialize, Serialize};
 
@@ -61,6 +66,10 @@ pub struct Simulation {
     pub set: Settings,
     pub table: PairTable,
     pub state: State,
+    /// Decomposition, ghosts, migration, balancing (one box when serial).
+    pub par: Parallel,
+    /// Global kinetic and potential energy at the last settle check (J).
+    pub energies: (f64, f64),
 }
 
 /// Rayleigh time of a sphere: pi R sqrt(rho / G) / (0.1631 nu + 0.8766).
@@ -69,8 +78,15 @@ pub fn rayleigh_time(radius: f64, density: f64, shear_modulus: f64, nu: f64) -> 
 }
 
 impl Simulation {
-    /// Build a simulation from a validated case: particles, walls, lists, checks.
+    /// Build a serial simulation from a validated case: particles, walls, lists, checks.
     pub fn new(case: Case) -> Result<Simulation, TalusError> {
+        Simulation::new_on(case, Rc::new(Comm::Serial))
+    }
+
+    /// Build a simulation on a communicator (a collective: every rank calls it
+    /// with the same case). Every rank reads the whole input, checks it, then
+    /// keeps the particles inside its box of the initial decomposition.
+    pub fn new_on(case: Case, comm: Rc<Comm>) -> Result<Simulation, TalusError> {
         let path = case.path.display().to_string();
         let conv = case.contact.convention;
         let mixing = match conv {
@@ -157,6 +173,7 @@ impl Simulation {
                 remove_at: w.remove_at,
                 force: Vec3::zeros(),
                 torque: Vec3::zeros(),
+                load: [0; 6],
             });
         }
 
@@ -216,7 +233,8 @@ impl Simulation {
         };
         let skin = s.skin.unwrap_or(0.2 * rmin);
         let mut nl = NeighborList::new(skin);
-        nl.build(&p, &walls, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
+        nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
+        nl.build(&p, &walls);
         // initial overlaps
         let tol = case.particles.overlap_tolerance;
         for &(a, b) in &nl.pairs {
@@ -231,11 +249,37 @@ impl Simulation {
         }
         let pe0 = p.potential_energy(set.sweep.gravity);
         let analysis = Analysis::new(&case, &p, &walls)?;
+
+        // decomposition: equal particle counts per box
+        let nranks = comm.size();
+        let ext = domain.hi - domain.lo;
+        let grid = case.parallel.grid.unwrap_or_else(|| choose_grid(nranks, ext));
+        if grid.iter().product::<usize>() != nranks {
+            return Err(TalusError::Input(format!(
+                "{path}: parallel.grid = {grid:?}: {} boxes for {nranks} MPI ranks; the product must equal the number of ranks",
+                grid.iter().product::<usize>()
+            )));
+        }
+        let mut dec = Decomposition::new(grid, domain.lo, domain.hi);
+        dec.fit(&Comm::Serial, &p.pos, &vec![1.0; p.len()]);
+        let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
+        let par_case = &case.parallel;
+        let balance = BalanceSettings {
+            mode: par_case.balance,
+            tolerance: par_case.imbalance_percent / 100.0,
+            interval: par_case.balance_interval,
+        };
+        let mut par = Parallel::new(comm, dec, 2.0 * rmax + skin, balance);
+        let mut gear = GearState::default();
+        let mut hist = History::default();
+        par.take_own(&mut p, &mut gear, &mut hist);
+        let hist = par.migrate(&mut p, &mut gear, hist);
+        nl.build_with(&p, &walls, &hist);
         let state = State {
             p,
             walls,
             nl,
-            gear: GearState::default(),
+            gear,
             time: 0.0,
             step: 0,
             phase: 0,
@@ -246,20 +290,94 @@ impl Simulation {
             contacts: 0,
             analysis,
         };
-        Ok(Simulation { case, set, table, state })
+        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0) })
     }
 
+    /// Check the particles and, if any rank needs it, rebuild the lists
+    /// (migrating particles and remaking ghosts); else refresh the ghosts.
     fn refresh_lists(&mut self) -> Result<(), TalusError> {
         let st = &mut self.state;
-        if st.nl.needs_rebuild(&st.p, &self.set.domain)? {
-            st.nl.build(&st.p, &st.walls, &self.set.domain)?;
+        let (need, err) = match st.nl.displacement(&st.p, &self.set.domain) {
+            Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
+            Err(e) => (true, Some(e.to_string())),
+        };
+        let (need, err) = self.par.agree(need || self.par.rebalance_pending, err);
+        if let Some(e) = err {
+            return Err(TalusError::Run(e));
+        }
+        let t = Instant::now();
+        if need {
+            let h = st.nl.take_history(&st.p);
+            let h = self.par.migrate(&mut st.p, &mut st.gear, h);
+            self.par.comm_s += t.elapsed().as_secs_f64();
+            st.nl.build_with(&st.p, &st.walls, &h);
+            self.par.rebalance_pending = false;
+        } else {
+            self.par.update_ghosts(&mut st.p);
+            self.par.comm_s += t.elapsed().as_secs_f64();
         }
         Ok(())
     }
 
     fn forces(&mut self) {
         let st = &mut self.state;
-        st.contacts = compute_forces(&self.set.sweep, &mut st.p, &mut st.walls, &mut st.nl, &self.table);
+        let c = compute_forces(&self.set.sweep, &mut st.p, &mut st.walls, &mut st.nl, &self.table);
+        st.contacts = c.owned;
+        self.par.evaluated = c.evaluated;
+    }
+
+    /// Sum the walls' loads over ranks (exact, the same for any P).
+    fn reduce_walls(&mut self) {
+        if self.par.size() == 1 {
+            return;
+        }
+        let t = Instant::now();
+        let mut v: Vec<i128> = self.state.walls.iter().flat_map(|w| w.load).collect();
+        self.par.comm.sum_exact(&mut v);
+        for (w, c) in self.state.walls.iter_mut().zip(v.chunks_exact(6)) {
+            w.force = Vec3::new(from_fixed(c[0]), from_fixed(c[1]), from_fixed(c[2]));
+            w.torque = Vec3::new(from_fixed(c[3]), from_fixed(c[4]), from_fixed(c[5]));
+        }
+        self.par.comm_s += t.elapsed().as_secs_f64();
+    }
+
+    /// Exact global sums of fixed-point values (a collective).
+    pub fn sum_exact(&self, v: &mut [i128]) {
+        self.par.comm.sum_exact(v);
+    }
+
+    /// Kinetic energy of all particles on all ranks (J; a collective).
+    pub fn kinetic_energy(&self) -> f64 {
+        let mut v = [self.state.p.kinetic_energy_fixed()];
+        self.sum_exact(&mut v);
+        from_fixed(v[0])
+    }
+
+    /// Touching contacts over all ranks (a collective).
+    pub fn contacts(&self) -> u64 {
+        let mut v = [self.state.contacts as u64];
+        self.par.comm.sum_u64(&mut v);
+        v[0]
+    }
+
+    /// Particles over all ranks (a collective).
+    pub fn particle_count(&self) -> u64 {
+        let mut v = [self.state.p.owned() as u64];
+        self.par.comm.sum_u64(&mut v);
+        v[0]
+    }
+
+    /// Mass of the particles with centre below z over all ranks (a collective).
+    pub fn mass_below(&self, z: f64) -> f64 {
+        let p = &self.state.p;
+        let mut v = [(0..p.owned()).filter(|&i| p.pos[i].z < z).map(|i| to_fixed(p.mass[i])).sum::<i128>()];
+        self.sum_exact(&mut v);
+        from_fixed(v[0])
+    }
+
+    /// Full records of the given particles, wherever they are owned (a collective).
+    pub fn tracked(&self, ids: &[u64]) -> Vec<Option<Record>> {
+        self.par.gather_ids(&self.state.p, ids)
     }
 
     /// Forces at the current state, once before the first step.
@@ -267,6 +385,7 @@ impl Simulation {
         if !self.state.forces_ready {
             self.refresh_lists()?;
             self.forces();
+            self.reduce_walls();
             if self.set.integrator == IntegratorKind::Gear {
                 self.state.gear.init(&self.state.p, self.set.dt, self.set.dim);
             }
@@ -278,13 +397,17 @@ impl Simulation {
 
     fn record(&mut self) {
         let mut a = std::mem::replace(&mut self.state.analysis, Analysis::None);
-        a.record(&self.state);
+        let ids = a.ids();
+        let tracked = if ids.is_empty() { Vec::new() } else { self.tracked(&ids) };
+        a.record(&self.state, &tracked);
         self.state.analysis = a;
     }
 
     /// Advance one time step.
     pub fn step(&mut self) -> Result<(), TalusError> {
         self.prepare()?;
+        let t0 = Instant::now();
+        let comm0 = self.par.comm_s;
         let dt = self.set.dt;
         let dim = self.set.dim;
         match self.set.integrator {
@@ -305,6 +428,10 @@ impl Simulation {
             IntegratorKind::Verlet => integrate::verlet_second(&mut self.state.p, dt, dim),
             IntegratorKind::Gear => self.state.gear.correct(&mut self.state.p, dt, dim),
         }
+        let compute = (t0.elapsed().as_secs_f64() - (self.par.comm_s - comm0)).max(0.0);
+        self.par.compute_s += compute;
+        self.reduce_walls();
+        self.par.after_step(&self.state.p, compute);
         self.state.step += 1;
         self.state.time = self.state.step as f64 * dt;
         self.record();
@@ -322,15 +449,22 @@ impl Simulation {
     /// Whether the current phase is over; applies its end actions and moves on if so.
     /// Returns false once every phase is done.
     pub fn advance_phase(&mut self) -> Result<bool, TalusError> {
+        let Some(ph) = self.case.phases.get(self.state.phase) else { return Ok(false) };
+        if ph.kinetic_energy_fraction.is_some() && self.state.settle_end.is_none() && self.state.step % 20 == 0 {
+            // exact global sums: every rank count decides at the same step
+            let mut v = [self.state.p.kinetic_energy_fixed(), self.state.p.potential_energy_fixed(self.set.sweep.gravity)];
+            self.sum_exact(&mut v);
+            self.energies = (from_fixed(v[0]), from_fixed(v[1]));
+        }
+        let (ke, pe) = self.energies;
         let st = &mut self.state;
-        let Some(ph) = self.case.phases.get(st.phase) else { return Ok(false) };
         let elapsed = st.time - st.phase_start;
         let dt = self.set.dt;
         let mut done = elapsed >= ph.duration - 0.5 * dt;
         if let Some(frac) = ph.kinetic_energy_fraction {
             if st.settle_end.is_none() && st.step % 20 == 0 {
-                let drop = st.pe0 - st.p.potential_energy(self.set.sweep.gravity);
-                if drop > 0.0 && st.p.kinetic_energy() < frac * drop {
+                let drop = st.pe0 - pe;
+                if drop > 0.0 && ke < frac * drop {
                     st.settle_end = Some(st.time + ph.settle_extra);
                 }
             }
@@ -357,11 +491,12 @@ impl Simulation {
         self.case.phases.iter().map(|p| p.duration).sum()
     }
 
-    /// Hash of every particle's id, position, velocity and spin, sorted by id (FNV-1a, 64 bit).
+    /// Hash of every particle's id, position, velocity and spin, sorted by id
+    /// (FNV-1a, 64 bit), over all ranks (a collective).
     pub fn state_hash(&self) -> String {
-        let p = &self.state.p;
-        let mut order: Vec<usize> = (0..p.len()).collect();
-        order.sort_by_key(|&i| p.id[i]);
+        let (recs, _) = self.par.gather_all(&self.state.p, &self.state.gear);
+        let p = Particles::from_records(&recs);
+        let order: Vec<usize> = (0..p.len()).collect();
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         let mut eat = |x: u64| {
             for b in x.to_le_bytes() {

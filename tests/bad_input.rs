@@ -126,7 +126,7 @@ fn particle_leaving_the_domain_stops_the_run_with_a_checkpoint() {
         &[("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, -5.0]"), ("normal = [0.0, 0.0, 1.0]", "normal = [0.0, 0.0, -1.0]")],
     );
     assert!(!ok);
-    assert!(err.contains("particle id 1") && err.contains("left the domain") && err.contains("checkpoint written"), "{err}");
+    assert!(err.contains("particle id 1") && err.contains("left the domain") && err.contains("written to") && err.contains("failure_checkpoint.bin"), "{err}");
     assert!(d.path().join("out").join("failure_checkpoint.bin").exists());
 }
 

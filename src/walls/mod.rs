@@ -111,6 +111,11 @@ pub struct Wall {
     pub force: Vec3,
     /// Torque about the origin exerted by the particles on the wall this step (N m).
     pub torque: Vec3,
+    /// This rank's part of force and torque in fixed point (exact sums, the
+    /// same for any number of ranks); `force` and `torque` are made from the
+    /// sum over ranks.
+    #[serde(skip)]
+    pub load: [i128; 6],
 }
 
 impl Wall {
