@@ -97,7 +97,14 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         if opts.max_steps.is_some_and(|m| steps >= m) {
             break;
         }
-        if !sim.advance_phase()? {
+        let phase = sim.state.phase;
+        let more = sim.advance_phase()?;
+        if sim.state.phase != phase {
+            // a checkpoint at the end of each phase (to restart, say, the discharge on another P)
+            let name = sim.case.phases[phase].name.clone();
+            write_checkpoint(sim, &out.join(format!("checkpoint_after_{name}.bin")))?;
+        }
+        if !more {
             break;
         }
         let t_prev = sim.state.time;

@@ -1,0 +1,155 @@
+//! MPI: results do not depend on the number of ranks (bit for bit, balancing on
+//! or off), checkpoints restart on another number of ranks, and a failing rank
+//! ends the job naming itself. Runs the `talus` binary under
+//! `mpirun --oversubscribe -n P` (OpenMPI from Debian: `openmpi-bin`).
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Write an edited copy of a case (and the hopper meshes) into `dir`.
+fn write_case(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let m = dir.join("meshes");
+    std::fs::create_dir_all(&m).unwrap();
+    for f in ["hopper.stl", "box.stl"] {
+        std::fs::copy(cases_dir().join("meshes").join(f), m.join(f)).unwrap();
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, case_text(name, edits)).unwrap();
+    path
+}
+
+/// Run talus on P ranks (P = 0: without mpirun). Returns (success, stdout + stderr, summary).
+fn talus(p: usize, case: &Path, out: &Path, extra: &[&str]) -> (bool, String, Option<serde_json::Value>) {
+    let bin = env!("CARGO_BIN_EXE_talus");
+    let mut args: Vec<String> = Vec::new();
+    let mut cmd = if p == 0 {
+        Command::new(bin)
+    } else {
+        args.extend(["--allow-run-as-root", "--oversubscribe", "-n", &p.to_string(), bin].map(String::from));
+        Command::new("mpirun")
+    };
+    args.extend(["run".to_string(), case.display().to_string(), "--out".into(), out.display().to_string(), "--quiet".into()]);
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let o = cmd
+        .args(&args)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start {}: {e} (is openmpi-bin installed?)", if p == 0 { bin } else { "mpirun" }));
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    let summary = std::fs::read_to_string(out.join("summary.json")).ok().map(|s| serde_json::from_str(&s).unwrap());
+    (o.status.success(), text, summary)
+}
+
+fn hash_of(p: usize, case: &Path, out: &Path, extra: &[&str]) -> String {
+    let (ok, text, s) = talus(p, case, out, extra);
+    assert!(ok, "talus on {p} ranks failed: {text}");
+    let s = s.unwrap();
+    assert_eq!(s["ranks"].as_u64().unwrap(), p.max(1) as u64);
+    s["state_hash"].as_str().unwrap().to_string()
+}
+
+#[test]
+fn h1_small_is_bit_identical_on_1_to_4_ranks_with_and_without_balancing() {
+    let d = tempfile::tempdir().unwrap();
+    // the gate opens at 0.25 s (step 2342): the last 1,100 steps discharge
+    let base = [
+        ("count = 5000", "count = 2500"),
+        ("duration = 1.2", "duration = 0.25"),
+        ("snapshot_interval = 0.1", "snapshot_interval = 10.0"),
+    ];
+    let mut runs: Vec<(usize, &str)> = vec![(0, "off"), (2, "time"), (3, "count"), (4, "contacts"), (4, "off")];
+    let mut reference: Option<(String, String)> = None;
+    for (k, (p, mode)) in runs.drain(..).enumerate() {
+        let dir = d.path().join(format!("case{k}"));
+        let text_edit = format!("[parallel]\nbalance = \"{mode}\"\nimbalance_percent = 2.0\nbalance_interval = 50\n\n[analysis]");
+        let mut edits = base.to_vec();
+        edits.push(("[analysis]", &text_edit));
+        let case = write_case(&dir, "H1-small.toml", &edits);
+        let out = dir.join("out");
+        let h = hash_of(p, &case, &out, &["--steps", "3400"]);
+        let probes = std::fs::read_to_string(out.join("probes.csv")).unwrap();
+        match &reference {
+            None => reference = Some((h, probes)),
+            Some((h0, p0)) => {
+                assert_eq!(&h, h0, "{p} ranks, balance {mode}: particle states differ from the serial run");
+                // energies, contacts, wall forces and torques, discharged mass: exact sums, same text
+                assert!(&probes == p0, "{p} ranks, balance {mode}: probes.csv differs from the serial run");
+            }
+        }
+    }
+}
+
+#[test]
+fn sheared_bed_is_bit_identical_on_1_to_4_ranks_and_restarts_on_another_count() {
+    let d = tempfile::tempdir().unwrap();
+    let small = ("count = 3000", "count = 1500");
+    let case = write_case(d.path(), "shear-bed.toml", &[small]);
+    let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "2500"]);
+    for (p, grid) in [(2, None), (3, None), (4, Some("[2, 2, 1]"))] {
+        let dir = d.path().join(format!("p{p}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let c = match grid {
+            Some(g) => {
+                let c = dir.join("shear-bed.toml");
+                std::fs::write(&c, case_text("shear-bed.toml", &[small, ("balance = \"time\"", &format!("grid = {g}\nbalance = \"count\""))])).unwrap();
+                c
+            }
+            None => case.clone(),
+        };
+        assert_eq!(hash_of(p, &c, &dir.join("out"), &["--steps", "2500"]), serial, "{p} ranks (grid {grid:?})");
+    }
+    // 1,200 steps on 2 ranks, then 1,300 more from its checkpoint on 3 ranks
+    let a = d.path().join("a");
+    let h_a = hash_of(2, &case, &a, &["--steps", "1200"]);
+    assert_ne!(h_a, serial);
+    let ck = a.join("checkpoint.bin");
+    let h_b = hash_of(3, &case, &d.path().join("b"), &["--steps", "1300", "--restart", ck.to_str().unwrap()]);
+    assert_eq!(h_b, serial, "2 ranks then 3 ranks from the checkpoint differ from one serial run");
+}
+
+#[test]
+fn gear_integrator_is_bit_identical_across_ranks() {
+    // Gear's derivatives migrate with the particles (Gear needs a smaller step
+    // than Verlet: at 0.2 of the Rayleigh time this hopper blows up, at 0.1 it runs)
+    let d = tempfile::tempdir().unwrap();
+    let case = write_case(
+        d.path(),
+        "H1-small.toml",
+        &[
+            ("timestep_rayleigh_fraction = 0.2", "timestep_rayleigh_fraction = 0.1"),
+            ("count = 5000", "count = 2000"),
+            ("integrator = \"verlet\"", "integrator = \"gear\""),
+            ("snapshot_interval = 0.1", "snapshot_interval = 10.0"),
+        ],
+    );
+    let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "3000"]);
+    assert_eq!(hash_of(3, &case, &d.path().join("p3"), &["--steps", "3000"]), serial);
+}
+
+#[test]
+fn a_failing_rank_ends_the_job_naming_the_rank_and_the_particle_and_all_write_a_checkpoint() {
+    let d = tempfile::tempdir().unwrap();
+    // no floor: the bed falls out through the bottom of the domain, on the lowest slab's rank
+    let case = write_case(d.path(), "shear-bed.toml", &[("normal = [0.0, 0.0, 1.0]", "normal = [0.0, 0.0, -1.0]")]);
+    let out = d.path().join("out");
+    let (ok, text, _) = talus(2, &case, &out, &[]);
+    assert!(!ok, "the run should fail: {text}");
+    assert!(text.contains("rank 0 of 2") && text.contains("left the domain") && text.contains("particle id"), "{text}");
+    assert!(out.join("failure_checkpoint.bin").exists());
+    // the failure checkpoint is a whole state: it restarts (and fails again) on another number of ranks
+    let (ok, text, _) = talus(3, &case, &d.path().join("again"), &["--restart", out.join("failure_checkpoint.bin").to_str().unwrap()]);
+    assert!(!ok && text.contains("left the domain"), "{text}");
+}
+
+#[test]
+fn a_grid_that_does_not_match_the_ranks_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let case = d.path().join("shear-bed.toml");
+    std::fs::write(&case, case_text("shear-bed.toml", &[("balance = \"time\"", "grid = [1, 1, 3]\nbalance = \"time\"")])).unwrap();
+    let (ok, text, _) = talus(2, &case, &d.path().join("out"), &["--steps", "10"]);
+    assert!(!ok);
+    assert!(text.contains("parallel.grid = [1, 1, 3]") && text.contains("2 MPI ranks"), "{text}");
+}
