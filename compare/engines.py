@@ -112,15 +112,17 @@ def talus_h1_case(setup, convention):
     return text
 
 
-def run_talus_h1(setup, convention, work, max_steps=None):
-    """talus on H1; returns (probes.csv, summary dict)."""
+def run_talus_h1(setup, convention, work, max_steps=None, ranks=1):
+    """talus on H1 (on `ranks` MPI ranks if more than one); returns (probes.csv, summary dict)."""
     import json
     work.mkdir(parents=True, exist_ok=True)
     case = work / f"talus-{convention}.toml"
     case.write_text(talus_h1_case(setup, convention))
-    out = work / f"talus-{convention}"
+    tag = f"talus-{convention}" + (f"-p{ranks}" if ranks > 1 else "")
+    out = work / tag
     extra = ["--steps", str(max_steps)] if max_steps else []
-    _run([TALUS, "run", case, "--out", out, "--quiet", *extra], work / f"talus-{convention}.log")
+    mpi = ["mpirun", "--allow-run-as-root", "-n", str(ranks)] if ranks > 1 else []
+    _run([*mpi, TALUS, "run", case, "--out", out, "--quiet", *extra], work / f"{tag}.log")
     return out / "probes.csv", json.loads((out / "summary.json").read_text())
 
 

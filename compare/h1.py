@@ -166,5 +166,9 @@ def throughput(setup, engs, out, max_steps=None):
         # whole-process wall time (includes YADE's start-up and the per-interval probes)
         _, _, secs = engines.run_yade_h1(setup, out / "yade", fill, discharge, summ["timestep_s"], nums["skin"])
         res["yade"] = n * steps / secs
-    ratios = {k: res["talus"] / v for k, v in res.items() if k != "talus"}
+    # talus on 2 MPI ranks (this machine has 2 cores): same case, steps and cloud
+    _, summ2 = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, ranks=2)
+    res["talus_2_ranks"] = summ2["particle_steps_per_s"]
+    ratios = {k: res["talus"] / v for k, v in res.items() if k not in ("talus", "talus_2_ranks")}
+    ratios.update({f"talus_2_ranks/{k}": res["talus_2_ranks"] / v for k, v in res.items() if k != "talus_2_ranks"})
     return {"setup": setup, "particles": n, "steps": steps, "particle_steps_per_s": res, "talus_over": ratios}

@@ -34,6 +34,9 @@ enum Cmd {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Override the case's `[parallel] balance` (off, count, time, contacts).
+        #[arg(long)]
+        balance: Option<String>,
     },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
@@ -74,9 +77,14 @@ fn main() -> ExitCode {
 
 fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
     match cli.cmd {
-        Cmd::Run { case, out, steps, restart, quiet } => {
+        Cmd::Run { case, out, steps, restart, quiet, balance } => {
             let root = comm.is_root();
-            let c = Case::load(&case)?;
+            let mut c = Case::load(&case)?;
+            if let Some(b) = balance {
+                c.parallel.balance = serde_json::from_value(serde_json::Value::String(b.clone())).map_err(|_| {
+                    TalusError::Input(format!("--balance {b}: must be one of off, count, time, contacts"))
+                })?;
+            }
             let out = out.unwrap_or_else(|| {
                 PathBuf::from("out").join(case.file_stem().map(|s| s.to_os_string()).unwrap_or_default())
             });

@@ -168,8 +168,12 @@ pub struct Checkpoint {
     pub history: History,
 }
 
+/// Hash of the case text, without its `[parallel]` section: how the work is
+/// split does not change results, so a checkpoint restarts under any.
 pub fn case_hash(sim: &Simulation) -> u64 {
-    let text = toml::to_string(&sim.case).unwrap_or_default();
+    let mut case = sim.case.clone();
+    case.parallel = Default::default();
+    let text = toml::to_string(&case).unwrap_or_default();
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
