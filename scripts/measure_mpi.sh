@@ -23,7 +23,8 @@ if [ ! -f "$CK" ]; then
     echo "== fill on 2 ranks (to the end-of-fill checkpoint)"
     $MPI -n 2 $B run $CASE --out "$OUT/fill" --steps 13000 --quiet > "$OUT/fill.log"
 fi
-run() {  # name ranks balance steps
+run() {  # name ranks balance steps (a run whose summary.json exists is kept)
+    if [ -f "$OUT/$1/summary.json" ]; then echo "== $1: kept"; return; fi
     echo "== $1: $2 rank(s), balance $3, $4 discharge steps"
     if [ "$2" = 1 ]; then
         $B run $CASE --restart "$CK" --steps "$4" --balance "$3" --out "$OUT/$1" --quiet > "$OUT/$1.log"

@@ -30,6 +30,30 @@ pub struct History {
 }
 
 impl History {
+    /// Merge another sorted, deduplicated history into this one (equal keys once).
+    pub fn merge(&mut self, other: History) {
+        fn merge_sorted<K: Ord + Copy>(a: &mut Vec<(K, Vec3)>, b: Vec<(K, Vec3)>) {
+            let old = std::mem::take(a);
+            a.reserve(old.len() + b.len());
+            let (mut i, mut j) = (0, 0);
+            while i < old.len() || j < b.len() {
+                if j == b.len() || (i < old.len() && old[i].0 < b[j].0) {
+                    a.push(old[i]);
+                    i += 1;
+                } else if i == old.len() || b[j].0 < old[i].0 {
+                    a.push(b[j]);
+                    j += 1;
+                } else {
+                    a.push(old[i]);
+                    i += 1;
+                    j += 1;
+                }
+            }
+        }
+        merge_sorted(&mut self.pairs, other.pairs);
+        merge_sorted(&mut self.walls, other.walls);
+    }
+
     /// Sort by key and drop repeated keys (a pair shared by two ranks arrives twice, with equal values).
     pub fn normalise(&mut self) {
         self.pairs.sort_unstable_by_key(|x| x.0);

@@ -301,19 +301,25 @@ impl Simulation {
             Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
             Err(e) => (true, Some(e.to_string())),
         };
+        let ta = Instant::now();
         let (need, err) = self.par.agree(need || self.par.rebalance_pending, err);
+        self.par.prof[3] += ta.elapsed().as_secs_f64();
         if let Some(e) = err {
             return Err(TalusError::Run(e));
         }
         let t = Instant::now();
         if need {
-            let h = st.nl.take_history(&st.p);
-            let h = self.par.migrate(&mut st.p, &mut st.gear, h);
+            let t1 = Instant::now();
+            let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
+            self.par.prof[0] += t1.elapsed().as_secs_f64();
             self.par.comm_s += t.elapsed().as_secs_f64();
+            let t2 = Instant::now();
             st.nl.build_with(&st.p, &st.walls, &h);
+            self.par.prof[1] += t2.elapsed().as_secs_f64();
             self.par.rebalance_pending = false;
         } else {
             self.par.update_ghosts(&mut st.p);
+            self.par.prof[2] += t.elapsed().as_secs_f64();
             self.par.comm_s += t.elapsed().as_secs_f64();
         }
         Ok(())
@@ -334,6 +340,7 @@ impl Simulation {
         let t = Instant::now();
         let mut v: Vec<i128> = self.state.walls.iter().flat_map(|w| w.load).collect();
         self.par.comm.sum_exact(&mut v);
+        self.par.prof[4] += t.elapsed().as_secs_f64();
         for (w, c) in self.state.walls.iter_mut().zip(v.chunks_exact(6)) {
             w.force = Vec3::new(from_fixed(c[0]), from_fixed(c[1]), from_fixed(c[2]));
             w.torque = Vec3::new(from_fixed(c[3]), from_fixed(c[4]), from_fixed(c[5]));

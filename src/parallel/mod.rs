@@ -16,7 +16,7 @@ pub mod decomp;
 
 use crate::dim::Vec3;
 use crate::integrate::GearState;
-use crate::neighbor::History;
+use crate::neighbor::{History, NeighborList};
 use crate::particles::{Particles, Record};
 use comm::Comm;
 use decomp::Decomposition;
@@ -77,6 +77,9 @@ pub struct Parallel {
     pub evaluated: usize,
     pub rebalance_pending: bool,
     pub rebalances: u64,
+    /// Seconds in: migration + ghosts, list builds, ghost refresh, the per-step
+    /// agreement, the wall-load sum (reported with TALUS_PROFILE=1).
+    pub prof: [f64; 5],
 }
 
 fn bin<T: Serialize>(x: &T) -> Vec<u8> {
@@ -111,6 +114,7 @@ impl Parallel {
             evaluated: 0,
             rebalance_pending: false,
             rebalances: 0,
+            prof: [0.0; 5],
         }
     }
 
@@ -137,10 +141,69 @@ impl Parallel {
         hist.walls.retain(|((a, _, _), _)| mine(*a));
     }
 
-    /// Migrate particles that left this rank's box (or all particles whose
-    /// owner changed after a rebalance) with their Gear derivatives and
-    /// contact history, then rebuild the ghost layer. Takes the history
-    /// before the move and returns the history the new list must use.
+    /// At a list rebuild: migrate the particles whose owner changed (left the
+    /// box, or the planes moved) with their Gear derivatives and the contact
+    /// history that involves them, then remake the ghosts. The history is read
+    /// from the current list (local indices make the split cheap); returns the
+    /// history the new list must use.
+    pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> History {
+        let me = self.rank();
+        if self.size() == 1 {
+            return nl.take_history(p);
+        }
+        let n = p.owned();
+        let dest: Vec<usize> = (0..n).map(|i| self.dec.owner(&p.pos[i])).collect();
+        let mut out: Vec<Migration> = (0..self.size()).map(|_| Migration::default()).collect();
+        let mut hist = History::default();
+        let zero = Vec3::zeros();
+        for (k, &(a, b)) in nl.pairs.iter().enumerate() {
+            let h = nl.pair_hist[k];
+            if h == zero {
+                continue;
+            }
+            let (a, b) = (a as usize, b as usize);
+            let e = ((p.id[a], p.id[b]), h);
+            let da = (a < n).then(|| dest[a]);
+            let db = (b < n).then(|| dest[b]);
+            if da == Some(me) || db == Some(me) {
+                hist.pairs.push(e);
+            }
+            if let Some(r) = da.filter(|&r| r != me) {
+                out[r].hist.pairs.push(e);
+            }
+            if let Some(r) = db.filter(|&r| r != me && Some(r) != da) {
+                out[r].hist.pairs.push(e);
+            }
+        }
+        for i in 0..n.min(nl.wall_start.len().saturating_sub(1)) {
+            for k in nl.wall_start[i] as usize..nl.wall_start[i + 1] as usize {
+                let h = nl.wall_hist[k];
+                if h != zero {
+                    let (w, f) = nl.wall_feat[k];
+                    let e = ((p.id[i], w, f), h);
+                    if dest[i] == me {
+                        hist.walls.push(e);
+                    } else {
+                        out[dest[i]].hist.walls.push(e);
+                    }
+                }
+            }
+        }
+        // the list is in id order already; sorting is then a linear check
+        hist.pairs.sort_unstable_by_key(|x| x.0);
+        hist.walls.sort_unstable_by_key(|x| x.0);
+        p.drop_ghosts();
+        for i in 0..n {
+            if dest[i] != me {
+                out[dest[i]].recs.push(p.record(i));
+                out[dest[i]].gear.push(gear.get(i));
+            }
+        }
+        self.exchange_owned(p, gear, hist, out, &dest)
+    }
+
+    /// Migrate particles that left this rank's box (used at set-up and restart,
+    /// with the history given keyed by ids), then rebuild the ghost layer.
     pub fn migrate(&mut self, p: &mut Particles, gear: &mut GearState, mut hist: History) -> History {
         let p_count = self.size();
         let me = self.rank();
@@ -158,60 +221,94 @@ impl Parallel {
                 out[r].gear.push(gear.get(i));
             }
         }
-        if p_count > 1 {
-            // history entries go wherever one of their particles goes
-            let local: std::collections::HashSet<u64> = p.id.iter().copied().collect();
-            let stays = |id: &u64| local.contains(id) && !leaving.contains_key(id);
-            for e in &hist.pairs {
-                let (a, b) = e.0;
-                let ra = leaving.get(&a);
-                let rb = leaving.get(&b);
-                if let Some(&r) = ra {
+        if p_count == 1 {
+            self.make_ghosts(p);
+            return hist;
+        }
+        // history entries go wherever one of their particles goes
+        for e in &hist.pairs {
+            let (a, b) = e.0;
+            let ra = leaving.get(&a);
+            let rb = leaving.get(&b);
+            if let Some(&r) = ra {
+                out[r].hist.pairs.push(*e);
+            }
+            if let Some(&r) = rb {
+                if ra != Some(&r) {
                     out[r].hist.pairs.push(*e);
                 }
-                if let Some(&r) = rb {
-                    if ra != Some(&r) {
-                        out[r].hist.pairs.push(*e);
-                    }
-                }
             }
-            for e in &hist.walls {
-                if let Some(&r) = leaving.get(&e.0 .0) {
-                    out[r].hist.walls.push(*e);
-                }
+        }
+        for e in &hist.walls {
+            if let Some(&r) = leaving.get(&e.0 .0) {
+                out[r].hist.walls.push(*e);
             }
-            hist.pairs.retain(|e| stays(&e.0 .0) || stays(&e.0 .1));
-            hist.walls.retain(|e| stays(&e.0 .0));
+        }
+        // keep what still involves a particle owned here (owned ids are sorted)
+        let ids = &p.id;
+        let stays = |id: &u64| !leaving.contains_key(id) && ids.binary_search(id).is_ok();
+        hist.pairs.retain(|e| stays(&e.0 .0) || stays(&e.0 .1));
+        hist.walls.retain(|e| stays(&e.0 .0));
+        self.exchange_owned(p, gear, hist, out, &dest)
+    }
+
+    /// Send the migrants (`out[r]` for rank r), receive this rank's, merge them
+    /// in id order with the particles that stay (`dest[i] == me`), then remake the ghosts.
+    fn exchange_owned(
+        &mut self,
+        p: &mut Particles,
+        gear: &mut GearState,
+        mut hist: History,
+        out: Vec<Migration>,
+        dest: &[usize],
+    ) -> History {
+        let me = self.rank();
+        let n = p.len();
+        let moved = dest.iter().any(|&d| d != me);
+        {
             let msgs: Vec<Vec<u8>> =
                 out.iter().enumerate().map(|(r, m)| if r == me || m.recs.is_empty() { Vec::new() } else { bin(m) }).collect();
             let got = self.comm.exchange_bytes(&msgs);
-            let keep: Vec<usize> = (0..n).filter(|&i| dest[i] == me).collect();
-            let mut rows: Vec<Vec<Vec3>> = keep.iter().map(|&i| gear.get(i)).collect();
-            p.permute(&keep);
+            let mut arrived: Vec<(Record, Vec<Vec3>)> = Vec::new();
+            let mut add = History::default();
             for (r, m) in got.iter().enumerate() {
                 if r == me || m.is_empty() {
                     continue;
                 }
                 let m: Migration = unbin(m);
-                for (k, rec) in m.recs.iter().enumerate() {
-                    p.push_record(rec);
-                    if gear.initialised {
-                        rows.push(m.gear[k].clone());
-                    }
+                let mut g = m.gear.into_iter();
+                for rec in m.recs {
+                    arrived.push((rec, g.next().unwrap_or_default()));
                 }
-                hist.pairs.extend(m.hist.pairs);
-                hist.walls.extend(m.hist.walls);
+                add.pairs.extend(m.hist.pairs);
+                add.walls.extend(m.hist.walls);
             }
-            // owned particles in id order
-            let mut order: Vec<usize> = (0..p.len()).collect();
-            order.sort_by_key(|&i| p.id[i]);
-            if gear.initialised {
-                let sorted: Vec<Vec<Vec3>> = order.iter().map(|&i| rows[i].clone()).collect();
-                rows = sorted;
+            if moved || !arrived.is_empty() {
+                // merge the staying particles (in id order) with the arrivals (sorted by id)
+                arrived.sort_by_key(|a| a.0.id);
+                let mut q = Particles::default();
+                let mut rows: Vec<Vec<Vec3>> = Vec::new();
+                let mut k = 0;
+                for i in (0..n).filter(|&i| dest[i] == me) {
+                    while k < arrived.len() && arrived[k].0.id < p.id[i] {
+                        q.push_record(&arrived[k].0);
+                        rows.push(std::mem::take(&mut arrived[k].1));
+                        k += 1;
+                    }
+                    q.push_record(&p.record(i));
+                    rows.push(gear.get(i));
+                }
+                for a in arrived[k..].iter_mut() {
+                    q.push_record(&a.0);
+                    rows.push(std::mem::take(&mut a.1));
+                }
+                *p = q;
+                gear.set_all(&rows);
+                if !add.pairs.is_empty() || !add.walls.is_empty() {
+                    add.normalise();
+                    hist.merge(add);
+                }
             }
-            p.permute(&order);
-            gear.set_all(&rows);
-            hist.normalise();
         }
         self.make_ghosts(p);
         hist
