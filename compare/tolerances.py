@@ -7,15 +7,21 @@ that are near zero (e.g. the spin after a near-normal impact).
 """
 
 # (kind, value, absolute floor)
+# The issue's tolerances were 0.005 on restitution, 1% on duration and overlap, 2%
+# on peak force and on the oblique rebound and spin. They are tightened to 1e-6
+# because the results allow it: talus set to a reference's convention integrates
+# the same discrete equations, and the measured differences are round-off
+# (LIGGGHTS: at most 1e-13 relative) or the reference's printed precision (YADE:
+# at most 2e-9 relative) over every SC run of `scripts/compare_all.sh`.
 SC = {
-    "restitution": ("abs", 0.005, 0.0),
-    "contact_duration_s": ("rel", 0.01, 0.0),
-    "max_overlap_m": ("rel", 0.01, 0.0),
-    "max_normal_force_n": ("rel", 0.02, 0.0),
+    "restitution": ("abs", 1e-6, 0.0),
+    "contact_duration_s": ("rel", 1e-6, 0.0),
+    "max_overlap_m": ("rel", 1e-6, 0.0),
+    "max_normal_force_n": ("rel", 1e-6, 0.0),
 }
 SC_OBLIQUE = {
-    "tangential_rebound_m_s": ("rel", 0.02, 1e-3),
-    "spin_rad_s": ("rel", 0.02, 0.5),
+    "tangential_rebound_m_s": ("rel", 1e-6, 1e-3),
+    "spin_rad_s": ("rel", 1e-6, 0.5),
 }
 # H1-small
 H1_DISCHARGE_RATE_REL = 0.10       # talus within 10% of each reference
