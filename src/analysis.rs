@@ -161,7 +161,7 @@ impl Analysis {
                     (_, Some(w)) if !st.walls[w].active => -a.radius,
                     (_, Some(w)) => match &st.walls[w].shape {
                         Shape::Plane(pl) => a.radius - pl.distance(&a.pos),
-                        Shape::Mesh(_) => unreachable!(),
+                        _ => unreachable!("validated: a plane"),
                     },
                     _ => unreachable!(),
                 };

@@ -164,10 +164,19 @@ pub struct WallSection {
     pub material: String,
     pub plane: Option<PlaneSection>,
     pub stl: Option<PathBuf>,
+    /// A rigid ball (2D: a disc, the cross-section of a cylinder), touched from outside.
+    pub disc: Option<DiscSection>,
     #[serde(default)]
     pub velocity: [f64; 3],
     /// Remove the wall at this simulated time (s).
     pub remove_at: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiscSection {
+    pub center: [f64; 3],
+    pub radius: f64,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -433,8 +442,27 @@ impl Case {
                 return Err(self.err(&format!("wall[{i}].name"), &w.name, "wall names must be unique"));
             }
             self.material_index(&w.material, &format!("wall.{}.material", w.name))?;
-            if w.plane.is_some() == w.stl.is_some() {
-                return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane and stl"));
+            let shapes = w.plane.is_some() as u8 + w.stl.is_some() as u8 + w.disc.is_some() as u8;
+            if shapes != 1 {
+                return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane, stl and disc"));
+            }
+            if let Some(d) = &w.disc {
+                if !(d.radius.is_finite() && d.radius > 0.0) {
+                    return Err(self.err(&format!("wall.{}.disc.radius", w.name), d.radius, "must be a positive length (m)"));
+                }
+            }
+            if self.simulation.dimension == Dimension::Two {
+                if let Some(p) = &w.plane {
+                    if p.normal[2] != 0.0 {
+                        return Err(self.err(&format!("wall.{}.plane.normal", w.name), format!("{:?}", p.normal), "in 2D a wall's normal lies in the x-y plane (z component 0)"));
+                    }
+                }
+                if w.stl.is_some() {
+                    return Err(self.err(&format!("wall.{}.stl", w.name), "", "STL meshes are 3D walls; in 2D use planes (lines) and discs"));
+                }
+                if w.velocity[2] != 0.0 {
+                    return Err(self.err(&format!("wall.{}.velocity", w.name), format!("{:?}", w.velocity), "in 2D a wall moves in the x-y plane (z component 0)"));
+                }
             }
             if let Some(t) = w.remove_at {
                 if !(t.is_finite() && t >= 0.0) {

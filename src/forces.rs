@@ -141,7 +141,10 @@ fn sweep<L: NormalLaw>(
             let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
             wall_contacts += 1;
             let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - s.wall_arm_overlap * hit.overlap, arm_j: 0.0 };
-            let pi = PairInertia::wall(p.radius[i], p.mass[i]);
+            let pi = match wall.curvature_radius() {
+                None => PairInertia::wall(p.radius[i], p.mass[i]),
+                Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
+            };
             let pm = table.get(p.material[i], wall.material);
             let v = relative_velocity(&g, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros());
             let vs = match s.tang.kinematics {

@@ -27,7 +27,7 @@ use crate::parallel::{BalanceSettings, Parallel};
 use crate::particles::{Particles, Record};
 use std::rc::Rc;
 use std::time::Instant;
-use crate::walls::{Mesh, Plane, Shape, Wall};
+use crate::walls::{Disc, Mesh, Plane, Shape, Wall};
 use serde::{Deserialize, Serialize};
 
 /// Settings fixed for a run, derived from the case.
@@ -134,6 +134,15 @@ impl Simulation {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
+        if case.simulation.dimension == Dimension::Two {
+            // 2D (as LIGGGHTS `dimension 2`): spheres moving in the x-y plane, spinning about z
+            if let Some(i) = inits.iter().find(|i| i.pos.z != 0.0 || i.vel.z != 0.0 || i.omega.x != 0.0 || i.omega.y != 0.0) {
+                return Err(TalusError::Input(format!(
+                    "{path}: particle id {}: position {:?}, velocity {:?}, spin {:?}: in 2D (simulation.dimension = \"2\") particles lie in z = 0, move in the x-y plane and spin about z",
+                    i.id, i.pos.as_slice(), i.vel.as_slice(), i.omega.as_slice()
+                )));
+            }
+        }
         let mut p = Particles::default();
         for i in &inits {
             p.push_sphere(i, mat.density, pmat);
@@ -162,7 +171,11 @@ impl Simulation {
             let shape = if let Some(pl) = &w.plane {
                 Shape::Plane(Plane { point: Vec3::from(pl.point), normal: Vec3::from(pl.normal).normalize() })
             } else {
-                Shape::Mesh(Mesh::from_stl(&case.resolve(w.stl.as_ref().expect("validated")))?)
+                if let Some(d) = &w.disc {
+                    Shape::Disc(Disc { center: Vec3::from(d.center), radius: d.radius })
+                } else {
+                    Shape::Mesh(Mesh::from_stl(&case.resolve(w.stl.as_ref().expect("validated")))?)
+                }
             };
             walls.push(Wall {
                 name: w.name.clone(),

@@ -50,6 +50,11 @@ impl PairInertia {
     pub fn wall(ri: f64, mi: f64) -> Self {
         PairInertia { r_eff: ri, m_eff: mi, sqrt_m_eff: mi.sqrt() }
     }
+    /// Against a rigid wall curved with radius rw (a ball or the drag cylinder): R* = ri rw / (ri + rw).
+    #[inline(always)]
+    pub fn curved_wall(ri: f64, rw: f64, mi: f64) -> Self {
+        PairInertia { r_eff: ri * rw / (ri + rw), m_eff: mi, sqrt_m_eff: mi.sqrt() }
+    }
 }
 
 /// What a law's normal part yields for the current overlap: the elastic normal

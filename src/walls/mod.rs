@@ -88,11 +88,35 @@ impl Plane {
     }
 }
 
+/// A rigid ball (in 2D: a disc, the cross-section of a cylinder along z);
+/// particles touch it from outside. The drag paper's cylinder.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Disc {
+    pub center: Vec3,
+    pub radius: f64,
+}
+
+impl Disc {
+    #[inline(always)]
+    pub fn contact(&self, c: &Vec3, r: f64) -> Option<WallHit> {
+        let d = c - self.center;
+        let dist = d.norm();
+        let overlap = r + self.radius - dist;
+        if overlap > 0.0 && dist > 0.0 {
+            let n = d / dist;
+            Some(WallHit { n, overlap, point: self.center + n * self.radius, feature: 0 })
+        } else {
+            None
+        }
+    }
+}
+
 /// The geometry of a wall.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub enum Shape {
     Plane(Plane),
     Mesh(Mesh),
+    Disc(Disc),
 }
 
 /// A named wall with its material, prescribed velocity and accumulated load.
@@ -128,6 +152,7 @@ impl Wall {
         match &mut self.shape {
             Shape::Plane(p) => p.point += d,
             Shape::Mesh(m) => m.translate(d),
+            Shape::Disc(b) => b.center += d,
         }
     }
 
@@ -141,6 +166,11 @@ impl Wall {
                 }
             }
             Shape::Mesh(m) => m.candidates(c, r + reach, out),
+            Shape::Disc(b) => {
+                if (c - b.center).norm() < b.radius + r + reach {
+                    out.push(0);
+                }
+            }
         }
     }
 
@@ -150,6 +180,16 @@ impl Wall {
         match &self.shape {
             Shape::Plane(p) => p.contact(c, r),
             Shape::Mesh(m) => m.contact(feature as usize, c, r),
+            Shape::Disc(b) => b.contact(c, r),
+        }
+    }
+
+    /// Radius of curvature of the wall's surface (None: flat).
+    #[inline(always)]
+    pub fn curvature_radius(&self) -> Option<f64> {
+        match &self.shape {
+            Shape::Disc(b) => Some(b.radius),
+            _ => None,
         }
     }
 }

@@ -1,0 +1,106 @@
+//! Two-dimensional runs (spheres moving in the x-y plane, as LIGGGHTS
+//! `dimension 2`) and the rigid disc wall that the drag paper pulls through its bed.
+
+mod common;
+use common::*;
+
+const DISC_CASE: &str = r#"
+[simulation]
+dimension = "2"
+timestep = 5e-6
+gravity = [0.0, 0.0, 0.0]
+domain = { lo = [-0.02, -0.02, -0.001], hi = [0.02, 0.02, 0.001] }
+
+[contact]
+model = "hertz"
+convention = "talus"
+
+[[material]]
+name = "m"
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+density = 2500.0
+restitution = 0.5
+friction = 0.4
+
+[particles]
+material = "m"
+list = [ { id = 1, position = [0.0, 0.0, 0.0], radius = 0.002 } ]
+
+# the drag paper's cylinder (diameter 3.175 mm), moving at 0.5 m/s along +x into the particle
+[[wall]]
+name = "cylinder"
+material = "m"
+disc = { center = [-0.00370, 0.0, 0.0], radius = 0.0015875 }
+velocity = [0.5, 0.0, 0.0]
+
+[[phase]]
+name = "hit"
+duration = 0.004
+
+[output]
+interval = 1e-5
+track = [1]
+"#;
+
+fn disc_case(edits: &[(&str, &str)]) -> talus::sim::Simulation {
+    let mut t = DISC_CASE.to_string();
+    for (a, b) in edits {
+        assert!(t.contains(a));
+        t = t.replacen(a, b, 1);
+    }
+    let c = talus::case::Case::parse(&t, &cases_dir().join("disc.toml")).unwrap_or_else(|e| panic!("{e}"));
+    talus::sim::Simulation::new(c).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn a_moving_disc_wall_throws_a_particle_off_with_restitution_e() {
+    // in the frame of the (infinitely heavy) wall the particle comes in at -v and leaves at +e v:
+    // in the lab frame it leaves at (1 + e) v
+    for e in [0.2, 0.5, 0.8] {
+        let mut sim = disc_case(&[("restitution = 0.5", &format!("restitution = {e}"))]);
+        while sim.state.time < 0.004 {
+            sim.step().unwrap();
+        }
+        let v = sim.state.p.vel[0];
+        assert!((v.x - (1.0 + e) * 0.5).abs() < 0.005 * 0.5, "e = {e}: v_out {v}");
+        assert!(v.y.abs() < 1e-12 && v.z == 0.0, "head-on stays on the line of centres: {v}");
+    }
+}
+
+#[test]
+fn elastic_impact_on_the_disc_follows_hertz_with_the_curved_effective_radius() {
+    let mut sim = disc_case(&[("restitution = 0.5", "restitution = 1.0")]);
+    let mut max_overlap: f64 = 0.0;
+    let mut max_force: f64 = 0.0;
+    while sim.state.time < 0.004 {
+        sim.step().unwrap();
+        let w = &sim.state.walls[0];
+        let talus::walls::Shape::Disc(d) = &w.shape else { unreachable!() };
+        max_overlap = max_overlap.max(0.002 + d.radius - (sim.state.p.pos[0] - d.center).norm());
+        max_force = max_force.max(w.force.norm());
+    }
+    // R* = r R / (r + R); the wall is rigid and infinitely heavy: m* = m
+    let rw = 0.0015875;
+    let r_eff = R * rw / (R + rw);
+    let (d, _, f) = hertz_theory(y_eff(), r_eff, mass(), 0.5);
+    assert!((max_overlap / d - 1.0).abs() < 0.01, "peak overlap {max_overlap} vs Hertz {d}");
+    assert!((max_force / f - 1.0).abs() < 0.01, "peak force {max_force} vs Hertz {f}");
+}
+
+#[test]
+fn two_d_input_out_of_the_plane_is_refused() {
+    let bad = [
+        ("position = [0.0, 0.0, 0.0]", "position = [0.0, 0.0, 0.0005]", "particle id 1"),
+        ("velocity = [0.5, 0.0, 0.0]", "velocity = [0.5, 0.0, 0.1]", "wall.cylinder.velocity"),
+    ];
+    for (a, b, key) in bad {
+        let t = DISC_CASE.replacen(a, b, 1);
+        let err = talus::case::Case::parse(&t, &cases_dir().join("disc.toml"))
+            .and_then(talus::sim::Simulation::new)
+            .err()
+            .unwrap_or_else(|| panic!("{b} accepted"))
+            .to_string();
+        assert!(err.contains(key) && err.contains("2D"), "{err}");
+    }
+}
