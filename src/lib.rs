@@ -5,6 +5,7 @@ pub mod analysis;
 pub mod case;
 pub mod contact;
 pub mod dim;
+pub mod drag;
 pub mod error;
 pub mod forces;
 pub mod generate;

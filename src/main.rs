@@ -38,6 +38,14 @@ enum Cmd {
         #[arg(long)]
         balance: Option<String>,
     },
+    /// Run a drag case (the drag paper, CASES.md D2) over its seeded beds.
+    Drag {
+        /// A drag case file (cases/drag/<id>.toml).
+        case: PathBuf,
+        /// Output folder (default: out/drag/<id>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
     /// Write a case's initial particles as CSV (id,x,y,z,radius,vx,vy,vz), for the other engines.
@@ -95,6 +103,16 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
                 for (k, v) in &r.summary {
                     println!("  {k:<32} {v}");
                 }
+            }
+            Ok(())
+        }
+        Cmd::Drag { case, out } => {
+            let dc = talus::drag::DragCase::load(&case)?;
+            let out = out.unwrap_or_else(|| PathBuf::from("out").join("drag").join(&dc.drag.id));
+            let s = talus::drag::run(&dc, &out)?;
+            println!("talus: drag case {} finished; outputs in {}", dc.drag.id, out.display());
+            for (k, v) in &s {
+                println!("  {k:<24} {v}");
             }
             Ok(())
         }

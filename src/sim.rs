@@ -506,6 +506,22 @@ impl Simulation {
         Ok(self.state.phase < self.case.phases.len())
     }
 
+    /// Set the owned particles' radii (in storage order), with mass and inertia
+    /// from their material's density; the lists are rebuilt at the next step.
+    /// (Used to compact a bed by growing the granules.)
+    pub fn set_radii(&mut self, r: &[f64]) {
+        let p = &mut self.state.p;
+        for (i, &ri) in r.iter().enumerate().take(p.owned()) {
+            let rho = self.case.materials[p.material[i] as usize].density;
+            let m = rho * 4.0 / 3.0 * std::f64::consts::PI * ri.powi(3);
+            p.radius[i] = ri;
+            p.mass[i] = m;
+            p.inv_mass[i] = 1.0 / m;
+            p.inv_inertia[i] = 1.0 / (0.4 * m * ri * ri);
+        }
+        self.state.nl.x_ref.clear();
+    }
+
     /// Total simulated time of all phases at most (s).
     pub fn planned_time(&self) -> f64 {
         self.case.phases.iter().map(|p| p.duration).sum()

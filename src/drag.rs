@@ -1,0 +1,350 @@
+//! The drag paper (D2 of CASES.md): a rigid cylinder pulled upward at constant
+//! speed through a confined two-dimensional bed, and the force of the granules
+//! on it. `talus drag CASE` runs one drag case over its seeded beds:
+//!
+//! 1. radii: N granules of size D_g (1 +- spread) (uniform), container W wide and
+//!    H = (sum of granule areas / V_f + cylinder area) / W high (paper eq. 18);
+//! 2. a loose random state: every granule placed at random, without overlap, at
+//!    `growth_from` of its radius (seeded ChaCha8: the same bed on every machine);
+//! 3. compaction by growing the radii linearly to full size over `growth_time`
+//!    (an isotropic compaction to the target area fraction; with friction on, the
+//!    bed jams below the target and the rest of the growth pressurises it), then
+//!    `settle_time`;
+//! 4. the cylinder moves at `cylinder_speed` along +y for `travel`; every step the
+//!    drag (force of the granules on the cylinder against its motion) is recorded.
+//!
+//! Granules are spheres moving in the plane (2D as LIGGGHTS `dimension 2`), Hertz-Mindlin
+//! with Coulomb friction in talus's convention. Dumbbells and ellipses: not yet.
+
+use crate::case::Case;
+use crate::error::TalusError;
+use crate::material::{Material, Mixing, PairTable};
+use crate::sim::{rayleigh_time, Simulation};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Map, Value};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GranuleShape {
+    Disc,
+    Dumbbell,
+    Ellipse,
+}
+
+fn d_one() -> f64 { 1.0 }
+fn d_count() -> usize { 400 }
+fn d_vf() -> f64 { 0.84 }
+fn d_width() -> f64 { 0.020 }
+fn d_spread() -> f64 { 0.2 }
+fn d_cyl() -> f64 { 3.175e-3 }
+fn d_speed() -> f64 { 2.0 }
+fn d_travel() -> f64 { 6.0e-3 }
+fn d_window() -> [f64; 2] { [1.0e-3, 5.0e-3] }
+fn d_seeds() -> Vec<u64> { vec![1, 2, 3, 4, 5] }
+fn d_growth_from() -> f64 { 0.7 }
+fn d_growth_time() -> f64 { 0.01 }
+fn d_settle_time() -> f64 { 0.005 }
+fn d_dt() -> f64 { 0.2 }
+fn d_g() -> f64 { 9.81 }
+
+/// `[drag]`: the set-up of one case of the paper's Tables 1 and 2.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DragSection {
+    /// Case id (c1, d1, ...).
+    pub id: String,
+    pub shape: GranuleShape,
+    /// Ellipse a/b (dumbbells: 2, discs: 1).
+    #[serde(default = "d_one")]
+    pub aspect_ratio: f64,
+    /// Granule size D_g (m): disc diameter, ellipse sqrt(ab) diameter, dumbbell volume diameter.
+    pub granule_size: f64,
+    #[serde(default = "d_count")]
+    pub count: usize,
+    /// Granule area over (container area - cylinder area).
+    #[serde(default = "d_vf")]
+    pub area_fraction: f64,
+    /// Container width W (m).
+    #[serde(default = "d_width")]
+    pub width: f64,
+    /// Sizes uniform within +- this fraction of D_g.
+    #[serde(default = "d_spread")]
+    pub size_spread: f64,
+    #[serde(default = "d_cyl")]
+    pub cylinder_diameter: f64,
+    #[serde(default = "d_speed")]
+    pub cylinder_speed: f64,
+    /// How far the cylinder moves (m); it starts at height H/2 - travel/2.
+    #[serde(default = "d_travel")]
+    pub travel: f64,
+    /// Displacements over which the drag is averaged (m).
+    #[serde(default = "d_window")]
+    pub average_window: [f64; 2],
+    #[serde(default = "d_seeds")]
+    pub seeds: Vec<u64>,
+    #[serde(default = "d_growth_from")]
+    pub growth_from: f64,
+    #[serde(default = "d_growth_time")]
+    pub growth_time: f64,
+    /// Friction during the growth (default: the material's, so that the bed
+    /// jams below the target fraction and the rest of the growth pressurises it).
+    pub growth_friction: Option<f64>,
+    #[serde(default = "d_settle_time")]
+    pub settle_time: f64,
+    #[serde(default = "d_dt")]
+    pub timestep_rayleigh_fraction: f64,
+    /// Gravity along -y (m/s^2).
+    #[serde(default = "d_g")]
+    pub gravity: f64,
+}
+
+/// A drag case file: `[drag]` and one `[material]` (granules, walls and cylinder).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DragCase {
+    pub drag: DragSection,
+    pub material: Material,
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+impl DragCase {
+    pub fn load(path: &Path) -> Result<DragCase, TalusError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| TalusError::io(format!("cannot read drag case {}", path.display()), e))?;
+        let mut c: DragCase = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
+            let at = line.map(|l| format!(", line {l}")).unwrap_or_default();
+            TalusError::Input(format!("{}{at}: {}", path.display(), e.message()))
+        })?;
+        c.path = path.to_path_buf();
+        c.validate()?;
+        Ok(c)
+    }
+
+    fn err(&self, key: &str, v: impl std::fmt::Display, why: &str) -> TalusError {
+        TalusError::Input(format!("{}: drag.{key} = {v}: {why}", self.path.display()))
+    }
+
+    fn validate(&self) -> Result<(), TalusError> {
+        self.material.validate(&self.path.display().to_string())?;
+        let d = &self.drag;
+        if d.shape != GranuleShape::Disc {
+            return Err(self.err("shape", format!("{:?}", d.shape).to_lowercase(), "dumbbells and ellipses are not implemented yet; only \"disc\" runs"));
+        }
+        for (k, v) in [
+            ("granule_size", d.granule_size),
+            ("width", d.width),
+            ("cylinder_diameter", d.cylinder_diameter),
+            ("cylinder_speed", d.cylinder_speed),
+            ("travel", d.travel),
+            ("growth_time", d.growth_time),
+            ("settle_time", d.settle_time),
+            ("timestep_rayleigh_fraction", d.timestep_rayleigh_fraction),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(self.err(k, v, "must be a positive number"));
+            }
+        }
+        if !(d.area_fraction > 0.0 && d.area_fraction < 0.91) {
+            return Err(self.err("area_fraction", d.area_fraction, "must be in (0, 0.91)"));
+        }
+        if !(d.size_spread >= 0.0 && d.size_spread < 1.0) {
+            return Err(self.err("size_spread", d.size_spread, "must be in [0, 1)"));
+        }
+        if !(d.growth_from > 0.0 && d.growth_from <= 1.0) {
+            return Err(self.err("growth_from", d.growth_from, "must be in (0, 1]"));
+        }
+        if d.count == 0 || d.seeds.is_empty() {
+            return Err(self.err("count", d.count, "need at least one granule and one seed"));
+        }
+        Ok(())
+    }
+
+    /// Container height (m) and the full radii of a bed.
+    pub fn bed_radii(&self, seed: u64) -> (f64, Vec<f64>) {
+        let d = &self.drag;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let radii: Vec<f64> =
+            (0..d.count).map(|_| 0.5 * d.granule_size * (1.0 + d.size_spread * (2.0 * rng.random::<f64>() - 1.0))).collect();
+        let area: f64 = radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
+        let rc = 0.5 * d.cylinder_diameter;
+        let h = (area / d.area_fraction + std::f64::consts::PI * rc * rc) / d.width;
+        (h, radii)
+    }
+
+    /// The talus case of one bed: granules at `growth_from` of their radii placed at
+    /// random without overlap, the four container walls, the cylinder at rest.
+    pub fn bed_case(&self, seed: u64) -> Result<(Case, Vec<f64>), TalusError> {
+        let d = &self.drag;
+        let (h, radii) = self.bed_radii(seed);
+        let w = d.width;
+        let rc = 0.5 * d.cylinder_diameter;
+        let (cx, cy) = (0.5 * w, 0.5 * h - 0.5 * d.travel);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0000_0000);
+        let s0 = d.growth_from;
+        let mut placed: Vec<(f64, f64, f64)> = Vec::with_capacity(d.count);
+        let mut tries = 0u64;
+        for &r in &radii {
+            let r0 = s0 * r;
+            loop {
+                tries += 1;
+                if tries > 2_000_000 {
+                    return Err(TalusError::Input(format!(
+                        "{}: cannot place {} granules at {s0} of their radii without overlap (seed {seed}); lower drag.growth_from",
+                        self.path.display(),
+                        d.count
+                    )));
+                }
+                let x = r0 + (w - 2.0 * r0) * rng.random::<f64>();
+                let y = r0 + (h - 2.0 * r0) * rng.random::<f64>();
+                let clear_cyl = (x - cx).powi(2) + (y - cy).powi(2) > (r0 + rc).powi(2);
+                if clear_cyl && placed.iter().all(|&(a, b, q)| (x - a).powi(2) + (y - b).powi(2) > (r0 + q).powi(2)) {
+                    placed.push((x, y, r0));
+                    break;
+                }
+            }
+        }
+        let m = &self.material;
+        let g = d.gravity;
+        let rmin = radii.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dt = d.timestep_rayleigh_fraction * rayleigh_time(rmin, m.density, m.shear_modulus(), m.poisson_ratio);
+        let total = d.growth_time + d.settle_time + d.travel / d.cylinder_speed;
+        let mut t = format!(
+            "[simulation]\ndimension = \"2\"\ntimestep = {dt:e}\nforce_timestep = true\ngravity = [0.0, {:e}, 0.0]\nskin = {:e}\ndomain = {{ lo = [{:e}, {:e}, -1.0], hi = [{:e}, {:e}, 1.0] }}\n\n",
+            -g,
+            0.1 * d.granule_size,
+            -0.5 * w,
+            -0.5 * h,
+            1.5 * w,
+            1.5 * h
+        );
+        t += "[contact]\nmodel = \"hertz\"\nconvention = \"talus\"\n\n";
+        t += &format!(
+            "[[material]]\nname = \"{}\"\nyoungs_modulus = {:e}\npoisson_ratio = {}\ndensity = {:e}\nrestitution = {}\nfriction = {}\n\n",
+            m.name, m.youngs_modulus, m.poisson_ratio, m.density, m.restitution, m.friction
+        );
+        t += &format!("[particles]\nmaterial = \"{}\"\nlist = [\n", m.name);
+        for (k, (x, y, r0)) in placed.iter().enumerate() {
+            t += &format!("  {{ id = {}, position = [{x:e}, {y:e}, 0.0], radius = {r0:e} }},\n", k + 1);
+        }
+        t += "]\n\n";
+        for (name, point, normal) in [
+            ("floor", [0.0, 0.0], [0.0, 1.0]),
+            ("lid", [0.0, h], [0.0, -1.0]),
+            ("left", [0.0, 0.0], [1.0, 0.0]),
+            ("right", [w, 0.0], [-1.0, 0.0]),
+        ] {
+            t += &format!(
+                "[[wall]]\nname = \"{name}\"\nmaterial = \"{}\"\nplane = {{ point = [{:e}, {:e}, 0.0], normal = [{:?}, {:?}, 0.0] }}\n\n",
+                m.name, point[0], point[1], normal[0], normal[1]
+            );
+        }
+        t += &format!(
+            "[[wall]]\nname = \"cylinder\"\nmaterial = \"{}\"\ndisc = {{ center = [{cx:e}, {cy:e}, 0.0], radius = {rc:e} }}\n\n",
+            m.name
+        );
+        t += &format!("[[phase]]\nname = \"drag\"\nduration = {total:e}\n");
+        let case = Case::parse(&t, &self.path.with_file_name(format!("{}-bed{seed}.toml", d.id)))?;
+        Ok((case, radii))
+    }
+}
+
+/// One bed's drag series: (displacement m, drag N) every step.
+pub struct BedResult {
+    pub seed: u64,
+    pub series: Vec<(f64, f64)>,
+    pub mean_drag: f64,
+    pub steps: u64,
+    pub final_positions: Vec<(f64, f64, f64)>,
+}
+
+/// Prepare one bed and drag the cylinder through it.
+pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
+    let d = &dc.drag;
+    let (case, radii) = dc.bed_case(seed)?;
+    let mut sim = Simulation::new(case)?;
+    let dt = sim.set.dt;
+    let cyl = sim.state.walls.iter().position(|w| w.name == "cylinder").expect("made above");
+    // growth (friction as set)
+    let mut grow_mat = dc.material.clone();
+    grow_mat.friction = d.growth_friction.unwrap_or(dc.material.friction);
+    let table = sim.table.clone();
+    sim.table = PairTable::new(&[grow_mat], Mixing::Liggghts);
+    let n_grow = (d.growth_time / dt).ceil() as u64;
+    for k in 1..=n_grow {
+        let s = d.growth_from + (1.0 - d.growth_from) * k as f64 / n_grow as f64;
+        let r: Vec<f64> = radii.iter().map(|r| r * s).collect();
+        sim.set_radii(&r);
+        sim.step()?;
+    }
+    sim.table = table;
+    for _ in 0..(d.settle_time / dt).ceil() as u64 {
+        sim.step()?;
+    }
+    // drag
+    let v = crate::dim::Vec3::new(0.0, d.cylinder_speed, 0.0);
+    sim.state.walls[cyl].velocity = v;
+    let n_drag = (d.travel / d.cylinder_speed / dt).ceil() as u64;
+    let mut series = Vec::with_capacity(n_drag as usize);
+    for k in 1..=n_drag {
+        sim.step()?;
+        // force of the granules on the cylinder, against its motion
+        let f = sim.state.walls[cyl].force;
+        series.push((d.cylinder_speed * dt * k as f64, -f.dot(&v) / d.cylinder_speed));
+    }
+    let [a, b] = d.average_window;
+    let win: Vec<f64> = series.iter().filter(|(s, _)| *s >= a && *s <= b).map(|x| x.1).collect();
+    let mean_drag = win.iter().sum::<f64>() / win.len().max(1) as f64;
+    let p = &sim.state.p;
+    let final_positions = (0..p.len()).map(|i| (p.pos[i].x, p.pos[i].y, p.radius[i])).collect();
+    Ok(BedResult { seed, series, mean_drag, steps: sim.state.step, final_positions })
+}
+
+/// Run a drag case over its beds; writes `summary.json` (`mean_drag_n`,
+/// `std_drag_n`, `beds`), `drag_vs_displacement.csv` (mean and standard deviation
+/// over the beds at each displacement) and `beds.csv` (each bed's mean drag).
+pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> {
+    std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
+    let start = std::time::Instant::now();
+    let mut beds = Vec::new();
+    for &seed in &dc.drag.seeds {
+        beds.push(run_bed(dc, seed)?);
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let n = beds.len() as f64;
+    let means: Vec<f64> = beds.iter().map(|b| b.mean_drag).collect();
+    let mean = means.iter().sum::<f64>() / n;
+    let std = if beds.len() > 1 { (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
+    let io = |e| TalusError::io(format!("writing into {}", out.display()), e);
+    let mut f = std::io::BufWriter::new(std::fs::File::create(out.join("drag_vs_displacement.csv")).map_err(io)?);
+    writeln!(f, "displacement_m,mean_drag_n,std_drag_n").map_err(io)?;
+    let len = beds.iter().map(|b| b.series.len()).min().unwrap_or(0);
+    for k in 0..len {
+        let vals: Vec<f64> = beds.iter().map(|b| b.series[k].1).collect();
+        let m = vals.iter().sum::<f64>() / n;
+        let s = if beds.len() > 1 { (vals.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
+        writeln!(f, "{:.6e},{m:.6e},{s:.6e}", beds[0].series[k].0).map_err(io)?;
+    }
+    f.flush().map_err(io)?;
+    let mut b = std::fs::File::create(out.join("beds.csv")).map_err(io)?;
+    writeln!(b, "seed,mean_drag_n,steps").map_err(io)?;
+    for bed in &beds {
+        writeln!(b, "{},{:.6e},{}", bed.seed, bed.mean_drag, bed.steps).map_err(io)?;
+    }
+    let mut s = Map::new();
+    s.insert("case".into(), json!(dc.drag.id));
+    s.insert("shape".into(), json!(dc.drag.shape));
+    s.insert("mean_drag_n".into(), json!(mean));
+    s.insert("std_drag_n".into(), json!(std));
+    s.insert("beds".into(), json!(beds.len()));
+    s.insert("bed_mean_drag_n".into(), json!(means));
+    s.insert("average_window_m".into(), json!(dc.drag.average_window));
+    s.insert("wall_clock_s".into(), json!(wall));
+    std::fs::write(out.join("summary.json"), serde_json::to_string_pretty(&s).unwrap() + "\n").map_err(io)?;
+    Ok(s)
+}
