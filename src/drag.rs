@@ -260,7 +260,8 @@ pub struct BedResult {
     pub series: Vec<(f64, f64)>,
     pub mean_drag: f64,
     pub steps: u64,
-    pub final_positions: Vec<(f64, f64, f64)>,
+    /// Snapshots (displacement, per granule: id, x, y, radius) at the start, middle and end of the drag.
+    pub snapshots: Vec<(f64, Vec<(u64, f64, f64, f64)>)>,
 }
 
 /// Prepare one bed and drag the cylinder through it.
@@ -291,8 +292,16 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     sim.state.walls[cyl].velocity = v;
     let n_drag = (d.travel / d.cylinder_speed / dt).ceil() as u64;
     let mut series = Vec::with_capacity(n_drag as usize);
+    let snap = |sim: &Simulation, s: f64| {
+        let p = &sim.state.p;
+        (s, (0..p.len()).map(|i| (p.id[i], p.pos[i].x, p.pos[i].y, p.radius[i])).collect::<Vec<_>>())
+    };
+    let mut snapshots = vec![snap(&sim, 0.0)];
     for k in 1..=n_drag {
         sim.step()?;
+        if k == n_drag / 2 || k == n_drag {
+            snapshots.push(snap(&sim, d.cylinder_speed * dt * k as f64));
+        }
         // force of the granules on the cylinder, against its motion
         let f = sim.state.walls[cyl].force;
         series.push((d.cylinder_speed * dt * k as f64, -f.dot(&v) / d.cylinder_speed));
@@ -300,9 +309,7 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let [a, b] = d.average_window;
     let win: Vec<f64> = series.iter().filter(|(s, _)| *s >= a && *s <= b).map(|x| x.1).collect();
     let mean_drag = win.iter().sum::<f64>() / win.len().max(1) as f64;
-    let p = &sim.state.p;
-    let final_positions = (0..p.len()).map(|i| (p.pos[i].x, p.pos[i].y, p.radius[i])).collect();
-    Ok(BedResult { seed, series, mean_drag, steps: sim.state.step, final_positions })
+    Ok(BedResult { seed, series, mean_drag, steps: sim.state.step, snapshots })
 }
 
 /// Run a drag case over its beds; writes `summary.json` (`mean_drag_n`,
@@ -329,6 +336,33 @@ pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> 
         let m = vals.iter().sum::<f64>() / n;
         let s = if beds.len() > 1 { (vals.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
         writeln!(f, "{:.6e},{m:.6e},{s:.6e}", beds[0].series[k].0).map_err(io)?;
+    }
+    f.flush().map_err(io)?;
+    // the first bed's granules at the start, middle and end of the drag, with the
+    // layer each started in (10 horizontal bands) and whether it belongs to the
+    // tracked cluster (within one cylinder diameter above the cylinder at the start)
+    let mut f = std::io::BufWriter::new(std::fs::File::create(out.join("snapshots.csv")).map_err(io)?);
+    writeln!(f, "seed,displacement_m,id,x_m,y_m,radius_m,layer,cluster,cylinder_x_m,cylinder_y_m,cylinder_radius_m").map_err(io)?;
+    if let Some(b0) = beds.first() {
+        let (h, _) = dc.bed_radii(b0.seed);
+        let d = &dc.drag;
+        let (cx, cy0, rc) = (0.5 * d.width, 0.5 * h - 0.5 * d.travel, 0.5 * d.cylinder_diameter);
+        let start = &b0.snapshots[0].1;
+        let tag: std::collections::HashMap<u64, (usize, bool)> = start
+            .iter()
+            .map(|&(id, x, y, _)| {
+                let layer = ((y / h * 10.0).floor().max(0.0) as usize).min(9);
+                let cluster = (x - cx).abs() < rc + 0.5 * d.granule_size && y > cy0 && y < cy0 + rc + d.cylinder_diameter;
+                (id, (layer, cluster))
+            })
+            .collect();
+        for (s, g) in &b0.snapshots {
+            for &(id, x, y, r) in g {
+                let (layer, cluster) = tag[&id];
+                writeln!(f, "{},{s:.6e},{id},{x:.6e},{y:.6e},{r:.6e},{layer},{},{cx:.6e},{:.6e},{rc:.6e}", b0.seed, cluster as u8, cy0 + s)
+                    .map_err(io)?;
+            }
+        }
     }
     f.flush().map_err(io)?;
     let mut b = std::fs::File::create(out.join("beds.csv")).map_err(io)?;
