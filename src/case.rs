@@ -119,6 +119,10 @@ pub struct ParticlesSection {
     pub csv: Option<PathBuf>,
     pub lattice: Option<LatticeSection>,
     pub list: Option<Vec<ParticleEntry>>,
+    /// Rigid pairs (2D dumbbells): each entry names the ids of two particles
+    /// that move as one body, joined where they touch.
+    #[serde(default)]
+    pub clumps: Vec<[u64; 2]>,
 }
 
 fn default_overlap_tol() -> f64 {

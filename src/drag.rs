@@ -133,8 +133,8 @@ impl DragCase {
     fn validate(&self) -> Result<(), TalusError> {
         self.material.validate(&self.path.display().to_string())?;
         let d = &self.drag;
-        if d.shape != GranuleShape::Disc {
-            return Err(self.err("shape", format!("{:?}", d.shape).to_lowercase(), "dumbbells and ellipses are not implemented yet; only \"disc\" runs"));
+        if d.shape == GranuleShape::Ellipse {
+            return Err(self.err("shape", "ellipse", "ellipses are not implemented yet; \"disc\" and \"dumbbell\" run"));
         }
         for (k, v) in [
             ("granule_size", d.granule_size),
@@ -177,38 +177,65 @@ impl DragCase {
         (h, radii)
     }
 
-    /// The talus case of one bed: granules at `growth_from` of their radii placed at
-    /// random without overlap, the four container walls, the cylinder at rest.
+    /// The talus case of one bed: granules at `growth_from` of their size placed at
+    /// random without overlap (a dumbbell: two discs of diameter sqrt(2) D / 2
+    /// touching at its centre, at a random angle), the four container walls, the
+    /// cylinder at rest. Returns the case and every particle's full radius (id order).
     pub fn bed_case(&self, seed: u64) -> Result<(Case, Vec<f64>), TalusError> {
         let d = &self.drag;
-        let (h, radii) = self.bed_radii(seed);
+        let (h, granules) = self.bed_radii(seed);
         let w = d.width;
         let rc = 0.5 * d.cylinder_diameter;
         let (cx, cy) = (0.5 * w, 0.5 * h - 0.5 * d.travel);
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0000_0000);
         let s0 = d.growth_from;
-        let mut placed: Vec<(f64, f64, f64)> = Vec::with_capacity(d.count);
+        let dumbbell = d.shape == GranuleShape::Dumbbell;
+        // (x, y, radius at s0) of every particle, and the full radii
+        let mut placed: Vec<(f64, f64, f64)> = Vec::with_capacity(2 * d.count);
+        let mut full = Vec::with_capacity(2 * d.count);
+        let mut clumps = Vec::new();
         let mut tries = 0u64;
-        for &r in &radii {
-            let r0 = s0 * r;
+        let free = |placed: &[(f64, f64, f64)], x: f64, y: f64, r: f64| {
+            x > r
+                && x < w - r
+                && y > r
+                && y < h - r
+                && (x - cx).powi(2) + (y - cy).powi(2) > (r + rc).powi(2)
+                && placed.iter().all(|&(a, b, q)| (x - a).powi(2) + (y - b).powi(2) > (r + q).powi(2))
+        };
+        for &rg in &granules {
             loop {
                 tries += 1;
-                if tries > 2_000_000 {
+                if tries > 5_000_000 {
                     return Err(TalusError::Input(format!(
-                        "{}: cannot place {} granules at {s0} of their radii without overlap (seed {seed}); lower drag.growth_from",
+                        "{}: cannot place {} granules at {s0} of their size without overlap (seed {seed}); lower drag.growth_from",
                         self.path.display(),
                         d.count
                     )));
                 }
-                let x = r0 + (w - 2.0 * r0) * rng.random::<f64>();
-                let y = r0 + (h - 2.0 * r0) * rng.random::<f64>();
-                let clear_cyl = (x - cx).powi(2) + (y - cy).powi(2) > (r0 + rc).powi(2);
-                if clear_cyl && placed.iter().all(|&(a, b, q)| (x - a).powi(2) + (y - b).powi(2) > (r0 + q).powi(2)) {
-                    placed.push((x, y, r0));
+                let x = w * rng.random::<f64>();
+                let y = h * rng.random::<f64>();
+                if dumbbell {
+                    let rs = std::f64::consts::FRAC_1_SQRT_2 * rg;
+                    let th = std::f64::consts::TAU * rng.random::<f64>();
+                    let (ex, ey) = (s0 * rs * th.cos(), s0 * rs * th.sin());
+                    let (a, b) = ((x + ex, y + ey), (x - ex, y - ey));
+                    if free(&placed, a.0, a.1, s0 * rs) && free(&placed, b.0, b.1, s0 * rs) {
+                        let n = placed.len() as u64;
+                        placed.push((a.0, a.1, s0 * rs));
+                        placed.push((b.0, b.1, s0 * rs));
+                        full.extend([rs, rs]);
+                        clumps.push([n + 1, n + 2]);
+                        break;
+                    }
+                } else if free(&placed, x, y, s0 * rg) {
+                    placed.push((x, y, s0 * rg));
+                    full.push(rg);
                     break;
                 }
             }
         }
+        let radii = full;
         let m = &self.material;
         let g = d.gravity;
         let rmin = radii.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -232,7 +259,15 @@ impl DragCase {
         for (k, (x, y, r0)) in placed.iter().enumerate() {
             t += &format!("  {{ id = {}, position = [{x:e}, {y:e}, 0.0], radius = {r0:e} }},\n", k + 1);
         }
-        t += "]\n\n";
+        t += "]\n";
+        if !clumps.is_empty() {
+            t += "clumps = [\n";
+            for [a, b] in &clumps {
+                t += &format!("  [{a}, {b}],\n");
+            }
+            t += "]\n";
+        }
+        t += "\n";
         for (name, point, normal) in [
             ("floor", [0.0, 0.0], [0.0, 1.0]),
             ("lid", [0.0, h], [0.0, -1.0]),

@@ -214,6 +214,7 @@ impl NeighborList {
             let ida = p.id[a];
             // a ghost pairs only with owned particles
             let ghost_a = a >= n_own;
+            let clump_a = p.clump[a];
             let c = cells[a];
             let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
             row.clear();
@@ -229,7 +230,10 @@ impl NeighborList {
                         // one rarely-taken branch (`&`, not `&&`): the id test alone
                         // would be a coin flip for the branch predictor
                         if (idb > ida) & (dx * dx + dy * dy + dz * dz < cut * cut) & !(ghost_a & (b as usize >= n_own)) {
-                            row.push((idb, b));
+                            // members of one clump never touch each other
+                            if clump_a == 0 || p.clump[b as usize] != clump_a {
+                                row.push((idb, b));
+                            }
                         }
                     }
                 }

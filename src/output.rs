@@ -198,6 +198,7 @@ pub fn write_checkpoint(sim: &Simulation, path: &Path) -> Result<(), TalusError>
             pe0: st.pe0,
             forces_ready: st.forces_ready,
             contacts: st.contacts,
+            clumps: st.clumps.clone(),
             analysis: st.analysis.clone(),
         };
         let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.par.size(), state, history };

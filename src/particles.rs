@@ -26,6 +26,9 @@ pub struct Particles {
     pub inv_inertia: Vec<f64>,
     /// Material index into the case's material list.
     pub material: Vec<u16>,
+    /// Clump (rigid body) each particle belongs to, 1-based; 0 = a free particle.
+    #[serde(default)]
+    pub clump: Vec<u32>,
     /// The last `ghosts` entries are copies of particles owned by other ranks.
     #[serde(default)]
     pub ghosts: usize,
@@ -46,6 +49,8 @@ pub struct Record {
     pub inv_mass: f64,
     pub inv_inertia: f64,
     pub material: u16,
+    #[serde(default)]
+    pub clump: u32,
 }
 
 /// One particle as read from input, before it enters the arrays.
@@ -84,6 +89,7 @@ impl Particles {
             inv_mass: self.inv_mass[i],
             inv_inertia: self.inv_inertia[i],
             material: self.material[i],
+            clump: self.clump[i],
         }
     }
 
@@ -99,6 +105,7 @@ impl Particles {
         self.inv_mass.push(r.inv_mass);
         self.inv_inertia.push(r.inv_inertia);
         self.material.push(r.material);
+        self.clump.push(r.clump);
     }
 
     /// Particles made of records (all owned).
@@ -116,7 +123,7 @@ impl Particles {
         macro_rules! cut {
             ($($f:ident),*) => { $( self.$f.truncate(n); )* };
         }
-        cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material);
+        cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump);
         self.ghosts = 0;
     }
 
@@ -135,6 +142,7 @@ impl Particles {
         self.inv_mass.push(1.0 / mass);
         self.inv_inertia.push(1.0 / inertia);
         self.material.push(material);
+        self.clump.push(0);
     }
 
     /// Sort every array by global id (stable local order); no ghosts.
@@ -150,7 +158,7 @@ impl Particles {
         macro_rules! permute {
             ($($f:ident),*) => { $( self.$f = perm.iter().map(|&i| self.$f[i]).collect(); )* };
         }
-        permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material);
+        permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump);
     }
 
     /// The particles as input records (for writing a cloud file).

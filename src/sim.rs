@@ -11,6 +11,7 @@
 
 use crate::analysis::Analysis;
 use crate::case::{Case, ModelName, WallContactPoint};
+use crate::clump::Clumps;
 use crate::contact::hertz::{Hertz, HertzDamping};
 use crate::contact::hooke::Hooke;
 use crate::contact::{Convention, EndOfContact, FrictionCap, ShearKinematics, TangentialHistory, TangentialOptions};
@@ -59,6 +60,9 @@ pub struct State {
     pub forces_ready: bool,
     pub contacts: usize,
     pub analysis: Analysis,
+    /// Rigid clumps (dumbbells), serial 2D runs.
+    #[serde(default)]
+    pub clumps: Clumps,
 }
 
 pub struct Simulation {
@@ -260,6 +264,32 @@ impl Simulation {
                 )));
             }
         }
+        // clumps (dumbbells): 2D, Verlet, one rank
+        let mut clumps = Clumps::default();
+        if !case.particles.clumps.is_empty() {
+            let key = "particles.clumps";
+            if case.simulation.dimension != Dimension::Two || case.simulation.integrator != IntegratorKind::Verlet {
+                return Err(TalusError::Input(format!("{path}: {key}: clumps (dumbbells) need simulation.dimension = \"2\" and the verlet integrator")));
+            }
+            if comm.size() > 1 {
+                return Err(TalusError::Input(format!("{path}: {key}: clumps run on one rank only (this run has {})", comm.size())));
+            }
+            let mut seen = std::collections::HashSet::new();
+            let mut pairs = Vec::new();
+            for (k, &[a, b]) in case.particles.clumps.iter().enumerate() {
+                let mut idx = [0usize; 2];
+                for (j, id) in [a, b].into_iter().enumerate() {
+                    idx[j] = p.id.binary_search(&id).map_err(|_| {
+                        TalusError::Input(format!("{path}: {key}[{k}] = [{a}, {b}]: no particle with id {id}"))
+                    })?;
+                    if !seen.insert(id) {
+                        return Err(TalusError::Input(format!("{path}: {key}[{k}] = [{a}, {b}]: particle {id} is in two clumps")));
+                    }
+                }
+                pairs.push(idx);
+            }
+            clumps = Clumps::new(&mut p, &pairs);
+        }
         let pe0 = p.potential_energy(set.sweep.gravity);
         let analysis = Analysis::new(&case, &p, &walls)?;
 
@@ -302,6 +332,7 @@ impl Simulation {
             forces_ready: false,
             contacts: 0,
             analysis,
+            clumps,
         };
         Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0) })
     }
@@ -431,7 +462,12 @@ impl Simulation {
         let dt = self.set.dt;
         let dim = self.set.dim;
         match self.set.integrator {
-            IntegratorKind::Verlet => integrate::verlet_first(&mut self.state.p, dt, dim),
+            IntegratorKind::Verlet => {
+                integrate::verlet_first(&mut self.state.p, dt, dim);
+                if !self.state.clumps.is_empty() {
+                    self.state.clumps.first_half(&mut self.state.p, dt);
+                }
+            }
             IntegratorKind::Gear => self.state.gear.predict(&mut self.state.p, dt),
         }
         let mut moved: f64 = 0.0;
@@ -445,7 +481,12 @@ impl Simulation {
         self.refresh_lists()?;
         self.forces();
         match self.set.integrator {
-            IntegratorKind::Verlet => integrate::verlet_second(&mut self.state.p, dt, dim),
+            IntegratorKind::Verlet => {
+                integrate::verlet_second(&mut self.state.p, dt, dim);
+                if !self.state.clumps.is_empty() {
+                    self.state.clumps.second_half(&mut self.state.p, dt);
+                }
+            }
             IntegratorKind::Gear => self.state.gear.correct(&mut self.state.p, dt, dim),
         }
         let compute = (t0.elapsed().as_secs_f64() - (self.par.comm_s - comm0)).max(0.0);
@@ -519,6 +560,13 @@ impl Simulation {
             p.inv_mass[i] = 1.0 / m;
             p.inv_inertia[i] = 1.0 / (0.4 * m * ri * ri);
         }
+        // a clump's members (dumbbell discs) stay touching at its centre
+        let c = &mut self.state.clumps;
+        for k in 0..c.members.len() {
+            c.half[k] = p.radius[c.members[k][0]];
+        }
+        c.refresh_mass(p);
+        c.place(p);
         self.state.nl.x_ref.clear();
     }
 
