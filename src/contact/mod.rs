@@ -10,6 +10,7 @@
 //! point at the contact minus j's; the returned force acts on i, and -force on j.
 //! The torque on each body is `-arm * n x force` with its own arm.
 
+pub mod ellipse;
 pub mod hertz;
 pub mod hooke;
 
