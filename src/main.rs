@@ -74,9 +74,15 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // errors are collective (every rank has the same message); rank 0 prints it
+            // errors are collective (every rank has the same message): rank 0 prints
+            // it at once; the others wait a moment before exiting (mpirun ends the job
+            // when the first process fails, which must not cut rank 0 short) and print
+            // theirs only if they are still running, i.e. if rank 0 did not fail
             if rank == 0 {
                 eprintln!("talus: error: {e}");
+            } else {
+                std::thread::sleep(std::time::Duration::from_millis(500));
+                eprintln!("talus: error (rank {rank} of {size}): {e}");
             }
             ExitCode::FAILURE
         }
