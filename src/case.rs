@@ -123,6 +123,20 @@ pub struct ParticlesSection {
     /// that move as one body, joined where they touch.
     #[serde(default)]
     pub clumps: Vec<[u64; 2]>,
+    /// Ellipses (2D): each entry turns the particle `id` into an ellipse of
+    /// aspect ratio a/b with the area of its listed disc (its radius is the
+    /// equivalent radius sqrt(a b)), major axis at `angle` (rad) from x.
+    #[serde(default)]
+    pub ellipses: Vec<EllipseEntry>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EllipseEntry {
+    pub id: u64,
+    pub aspect_ratio: f64,
+    #[serde(default)]
+    pub angle: f64,
 }
 
 fn default_overlap_tol() -> f64 {
@@ -170,10 +184,29 @@ pub struct WallSection {
     pub stl: Option<PathBuf>,
     /// A rigid ball (2D: a disc, the cross-section of a cylinder), touched from outside.
     pub disc: Option<DiscSection>,
+    /// 2D: a straight segment `{ from, to }`, touched from either side.
+    pub segment: Option<SegmentSection>,
+    /// 2D: a closed box of four segments `{ lo, hi }` (x-y corners), one wall.
+    #[serde(rename = "box")]
+    pub boxed: Option<BoxSection>,
     #[serde(default)]
     pub velocity: [f64; 3],
     /// Remove the wall at this simulated time (s).
     pub remove_at: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentSection {
+    pub from: [f64; 3],
+    pub to: [f64; 3],
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSection {
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -446,9 +479,27 @@ impl Case {
                 return Err(self.err(&format!("wall[{i}].name"), &w.name, "wall names must be unique"));
             }
             self.material_index(&w.material, &format!("wall.{}.material", w.name))?;
-            let shapes = w.plane.is_some() as u8 + w.stl.is_some() as u8 + w.disc.is_some() as u8;
+            let shapes = w.plane.is_some() as u8
+                + w.stl.is_some() as u8
+                + w.disc.is_some() as u8
+                + w.segment.is_some() as u8
+                + w.boxed.is_some() as u8;
             if shapes != 1 {
-                return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane, stl and disc"));
+                return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane, stl, disc, segment and box"));
+            }
+            if self.simulation.dimension != Dimension::Two && (w.segment.is_some() || w.boxed.is_some()) {
+                let key = if w.segment.is_some() { "segment" } else { "box" };
+                return Err(self.err(&format!("wall.{}.{key}", w.name), "", "segments and boxes are 2D walls (simulation.dimension = \"2\"); in 3D use planes and STL meshes"));
+            }
+            if let Some(s) = &w.segment {
+                if s.from[2] != 0.0 || s.to[2] != 0.0 || s.from == s.to || s.from.iter().chain(&s.to).any(|x| !x.is_finite()) {
+                    return Err(self.err(&format!("wall.{}.segment", w.name), format!("from {:?} to {:?}", s.from, s.to), "needs two distinct finite end points in z = 0"));
+                }
+            }
+            if let Some(b) = &w.boxed {
+                if b.lo[2] != 0.0 || b.hi[2] != 0.0 || !(b.lo[0] < b.hi[0] && b.lo[1] < b.hi[1]) || b.lo.iter().chain(&b.hi).any(|x| !x.is_finite()) {
+                    return Err(self.err(&format!("wall.{}.box", w.name), format!("lo {:?} hi {:?}", b.lo, b.hi), "needs finite corners in z = 0 with lo < hi in x and y"));
+                }
             }
             if let Some(d) = &w.disc {
                 if !(d.radius.is_finite() && d.radius > 0.0) {

@@ -13,10 +13,14 @@
 //! 4. the cylinder moves at `cylinder_speed` along +y for `travel`; every step the
 //!    drag (force of the granules on the cylinder against its motion) is recorded.
 //!
-//! Granules are spheres moving in the plane (2D as LIGGGHTS `dimension 2`), Hertz-Mindlin
-//! with Coulomb friction in talus's convention. Dumbbells and ellipses: not yet.
+//! Granules are spheres moving in the plane (2D as LIGGGHTS `dimension 2`),
+//! dumbbells (rigid pairs of discs, `clump.rs`) or ellipses of the equivalent
+//! area (semi-axes r sqrt(lambda), r / sqrt(lambda), placed at a random angle),
+//! Hertz-Mindlin with Coulomb friction in talus's convention.
 
 use crate::case::Case;
+use crate::contact::ellipse::{contact, Ellipse};
+use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::material::{Material, Mixing, PairTable};
 use crate::sim::{rayleigh_time, Simulation};
@@ -133,8 +137,8 @@ impl DragCase {
     fn validate(&self) -> Result<(), TalusError> {
         self.material.validate(&self.path.display().to_string())?;
         let d = &self.drag;
-        if d.shape == GranuleShape::Ellipse {
-            return Err(self.err("shape", "ellipse", "ellipses are not implemented yet; \"disc\" and \"dumbbell\" run"));
+        if d.shape == GranuleShape::Ellipse && !(d.aspect_ratio >= 1.0 && d.aspect_ratio <= 10.0) {
+            return Err(self.err("aspect_ratio", d.aspect_ratio, "an ellipse's a/b must be in [1, 10]"));
         }
         for (k, v) in [
             ("granule_size", d.granule_size),
@@ -190,10 +194,14 @@ impl DragCase {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0000_0000);
         let s0 = d.growth_from;
         let dumbbell = d.shape == GranuleShape::Dumbbell;
+        let ellipse = d.shape == GranuleShape::Ellipse;
         // (x, y, radius at s0) of every particle, and the full radii
         let mut placed: Vec<(f64, f64, f64)> = Vec::with_capacity(2 * d.count);
         let mut full = Vec::with_capacity(2 * d.count);
         let mut clumps = Vec::new();
+        // ellipses: the body at s0 of every particle (discs as a = b) and its angle
+        let mut bodies: Vec<Ellipse> = Vec::with_capacity(d.count);
+        let mut angle_rng = ChaCha8Rng::seed_from_u64(seed ^ 0xa9_1e00_0000);
         let mut tries = 0u64;
         let free = |placed: &[(f64, f64, f64)], x: f64, y: f64, r: f64| {
             x > r
@@ -202,6 +210,16 @@ impl DragCase {
                 && y < h - r
                 && (x - cx).powi(2) + (y - cy).powi(2) > (r + rc).powi(2)
                 && placed.iter().all(|&(a, b, q)| (x - a).powi(2) + (y - b).powi(2) > (r + q).powi(2))
+        };
+        let cyl = Ellipse { c: Vec3::new(cx, cy, 0.0), a: rc, b: rc, theta: 0.0 };
+        let free_ellipse = |bodies: &[Ellipse], e: &Ellipse| {
+            let (c, hx, hy) = (e.c, e.support(1.0, 0.0), e.support(0.0, 1.0));
+            c.x > hx
+                && c.x < w - hx
+                && c.y > hy
+                && c.y < h - hy
+                && contact(&cyl, e).is_none()
+                && bodies.iter().all(|o| (o.c - c).norm() >= o.a + e.a || contact(o, e).is_none())
         };
         for &rg in &granules {
             loop {
@@ -226,6 +244,17 @@ impl DragCase {
                         placed.push((b.0, b.1, s0 * rs));
                         full.extend([rs, rs]);
                         clumps.push([n + 1, n + 2]);
+                        break;
+                    }
+                } else if ellipse {
+                    let l = d.aspect_ratio.sqrt();
+                    // angles from their own stream: at aspect ratio 1 the bed is the disc bed
+                    let th = std::f64::consts::PI * angle_rng.random::<f64>();
+                    let e = Ellipse { c: Vec3::new(x, y, 0.0), a: s0 * rg * l, b: s0 * rg / l, theta: th };
+                    if free_ellipse(&bodies, &e) {
+                        bodies.push(e);
+                        placed.push((x, y, s0 * rg));
+                        full.push(rg);
                         break;
                     }
                 } else if free(&placed, x, y, s0 * rg) {
@@ -260,6 +289,13 @@ impl DragCase {
             t += &format!("  {{ id = {}, position = [{x:e}, {y:e}, 0.0], radius = {r0:e} }},\n", k + 1);
         }
         t += "]\n";
+        if ellipse {
+            t += "ellipses = [\n";
+            for (k, e) in bodies.iter().enumerate() {
+                t += &format!("  {{ id = {}, aspect_ratio = {:?}, angle = {:e} }},\n", k + 1, d.aspect_ratio, e.theta);
+            }
+            t += "]\n";
+        }
         if !clumps.is_empty() {
             t += "clumps = [\n";
             for [a, b] in &clumps {
@@ -295,8 +331,8 @@ pub struct BedResult {
     pub series: Vec<(f64, f64)>,
     pub mean_drag: f64,
     pub steps: u64,
-    /// Snapshots (displacement, per granule: id, x, y, radius) at the start, middle and end of the drag.
-    pub snapshots: Vec<(f64, Vec<(u64, f64, f64, f64)>)>,
+    /// Snapshots (displacement, per granule: id, x, y, radius (a), minor semi-axis b, angle) at the start, middle and end of the drag.
+    pub snapshots: Vec<(f64, Vec<(u64, f64, f64, f64, f64, f64)>)>,
 }
 
 /// Prepare one bed and drag the cylinder through it.
@@ -323,13 +359,13 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
         sim.step()?;
     }
     // drag
-    let v = crate::dim::Vec3::new(0.0, d.cylinder_speed, 0.0);
+    let v = Vec3::new(0.0, d.cylinder_speed, 0.0);
     sim.state.walls[cyl].velocity = v;
     let n_drag = (d.travel / d.cylinder_speed / dt).ceil() as u64;
     let mut series = Vec::with_capacity(n_drag as usize);
     let snap = |sim: &Simulation, s: f64| {
         let p = &sim.state.p;
-        (s, (0..p.len()).map(|i| (p.id[i], p.pos[i].x, p.pos[i].y, p.radius[i])).collect::<Vec<_>>())
+        (s, (0..p.len()).map(|i| (p.id[i], p.pos[i].x, p.pos[i].y, p.radius[i], p.minor[i], p.angle[i])).collect::<Vec<_>>())
     };
     let mut snapshots = vec![snap(&sim, 0.0)];
     for k in 1..=n_drag {
@@ -377,7 +413,7 @@ pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> 
     // layer each started in (10 horizontal bands) and whether it belongs to the
     // tracked cluster (within one cylinder diameter above the cylinder at the start)
     let mut f = std::io::BufWriter::new(std::fs::File::create(out.join("snapshots.csv")).map_err(io)?);
-    writeln!(f, "seed,displacement_m,id,x_m,y_m,radius_m,layer,cluster,cylinder_x_m,cylinder_y_m,cylinder_radius_m").map_err(io)?;
+    writeln!(f, "seed,displacement_m,id,x_m,y_m,radius_m,minor_m,angle_rad,layer,cluster,cylinder_x_m,cylinder_y_m,cylinder_radius_m").map_err(io)?;
     if let Some(b0) = beds.first() {
         let (h, _) = dc.bed_radii(b0.seed);
         let d = &dc.drag;
@@ -385,16 +421,16 @@ pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> 
         let start = &b0.snapshots[0].1;
         let tag: std::collections::HashMap<u64, (usize, bool)> = start
             .iter()
-            .map(|&(id, x, y, _)| {
+            .map(|&(id, x, y, _, _, _)| {
                 let layer = ((y / h * 10.0).floor().max(0.0) as usize).min(9);
                 let cluster = (x - cx).abs() < rc + 0.5 * d.granule_size && y > cy0 && y < cy0 + rc + d.cylinder_diameter;
                 (id, (layer, cluster))
             })
             .collect();
         for (s, g) in &b0.snapshots {
-            for &(id, x, y, r) in g {
+            for &(id, x, y, r, rb, th) in g {
                 let (layer, cluster) = tag[&id];
-                writeln!(f, "{},{s:.6e},{id},{x:.6e},{y:.6e},{r:.6e},{layer},{},{cx:.6e},{:.6e},{rc:.6e}", b0.seed, cluster as u8, cy0 + s)
+                writeln!(f, "{},{s:.6e},{id},{x:.6e},{y:.6e},{r:.6e},{rb:.6e},{th:.6e},{layer},{},{cx:.6e},{:.6e},{rc:.6e}", b0.seed, cluster as u8, cy0 + s)
                     .map_err(io)?;
             }
         }

@@ -3,6 +3,7 @@
 //! and the kernel is monomorphised for it.
 
 use crate::contact::hertz::Hertz;
+use crate::contact::ellipse;
 use crate::contact::hooke::Hooke;
 use crate::contact::{
     evaluate, relative_velocity, torques, yade_shear_velocity, ContactGeom, EndOfContact, NormalLaw, PairInertia,
@@ -90,6 +91,34 @@ fn sweep<L: NormalLaw>(
             }
             continue;
         }
+        if p.ellipse[a] || p.ellipse[b] {
+            // ellipses (2D): contact geometry by the certified Newton search,
+            // body 1 = b, body 2 = a, so n points from b to a as below
+            let (ea, eb) = (p.ellipse_of(a), p.ellipse_of(b));
+            let Some(ec) = ellipse::contact_fast(&eb, &ea) else {
+                if *hist != Vec3::zeros() {
+                    *hist = Vec3::zeros();
+                }
+                continue;
+            };
+            contacts += 1;
+            owned_pairs += (a < n_own) as usize;
+            let n = ec.n;
+            let (ra, rb) = (ec.point - p.pos[a], ec.point - p.pos[b]);
+            // Hertz with the local radii of curvature at the contact
+            let (rho_a, rho_b) = (ea.curvature_radius(-n.x, -n.y), eb.curvature_radius(n.x, n.y));
+            let mut pi = nl.pair_inertia[k];
+            pi.r_eff = rho_a * rho_b / (rho_a + rho_b);
+            let g = ContactGeom { n, overlap: ec.overlap, arm_i: ra.norm(), arm_j: rb.norm() };
+            let pm = table.get(p.material[a], p.material[b]);
+            let v = (p.vel[a] + p.omega[a].cross(&ra)) - (p.vel[b] + p.omega[b].cross(&rb));
+            let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, v, hist, s.dt);
+            p.force[a] += c.force;
+            p.force[b] -= c.force;
+            p.torque[a] += ra.cross(&c.force);
+            p.torque[b] -= rb.cross(&c.force);
+            continue;
+        }
         contacts += 1;
         owned_pairs += (a < n_own) as usize;
         let dist = dist2.sqrt();
@@ -128,7 +157,11 @@ fn sweep<L: NormalLaw>(
         for k in lo..hi {
             let (wi, feat) = nl.wall_feat[k];
             let wall = &walls[wi as usize];
-            hits.push(if wall.active { wall.contact(feat, &p.pos[i], p.radius[i]) } else { None });
+            hits.push(match (wall.active, p.ellipse[i]) {
+                (false, _) => None,
+                (true, false) => wall.contact(feat, &p.pos[i], p.radius[i]),
+                (true, true) => wall.ellipse_contact(feat, &p.ellipse_of(i)),
+            });
         }
         merge_coincident(&nl.wall_feat[lo..hi], &mut hits, p.radius[i]);
         carry_history(&nl.wall_feat[lo..hi], &hits, &mut nl.wall_hist[lo..hi]);
@@ -140,6 +173,29 @@ fn sweep<L: NormalLaw>(
             };
             let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
             wall_contacts += 1;
+            if p.ellipse[i] {
+                // hit.point is the ellipse's deepest point; the force acts
+                // s.wall_arm_overlap of the overlap back towards the ellipse
+                let point = hit.point + hit.n * (s.wall_arm_overlap * hit.overlap);
+                let ri = point - p.pos[i];
+                let rho = p.ellipse_of(i).curvature_radius(-hit.n.x, -hit.n.y);
+                let pi = match wall.curvature_radius() {
+                    None => PairInertia::wall(rho, p.mass[i]),
+                    Some(rw) => PairInertia::curved_wall(rho, rw, p.mass[i]),
+                };
+                let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: ri.norm(), arm_j: 0.0 };
+                let pm = table.get(p.material[i], wall.material);
+                let v = p.vel[i] + p.omega[i].cross(&ri) - wall.velocity;
+                let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, v, hist, s.dt);
+                p.force[i] += c.force;
+                p.torque[i] += ri.cross(&c.force);
+                let t = point.cross(&c.force);
+                for k in 0..3 {
+                    wall.load[k] -= to_fixed(c.force[k]);
+                    wall.load[3 + k] -= to_fixed(t[k]);
+                }
+                continue;
+            }
             let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - s.wall_arm_overlap * hit.overlap, arm_j: 0.0 };
             let pi = match wall.curvature_radius() {
                 None => PairInertia::wall(p.radius[i], p.mass[i]),

@@ -28,6 +28,12 @@ pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
         p.omega[i] = dim.project_angular(p.omega[i] + p.torque[i] * (h * p.inv_inertia[i]));
         p.pos[i] += p.vel[i] * dt;
     }
+    if dim == Dimension::Two {
+        // orientation (ellipses); spin is about z only
+        for i in 0..p.owned() {
+            p.angle[i] += p.omega[i].z * dt;
+        }
+    }
 }
 
 /// Velocity Verlet: second half kick, after the forces.

@@ -29,6 +29,17 @@ pub struct Particles {
     /// Clump (rigid body) each particle belongs to, 1-based; 0 = a free particle.
     #[serde(default)]
     pub clump: Vec<u32>,
+    /// Whether the particle is an ellipse (2D): then `radius` is its semi-major
+    /// axis a (the bounding circle every neighbour search uses) and `minor` its
+    /// semi-minor axis b; a round particle has minor = radius.
+    #[serde(default)]
+    pub ellipse: Vec<bool>,
+    #[serde(default)]
+    pub minor: Vec<f64>,
+    /// Orientation about z of the body x axis (the major axis of an ellipse),
+    /// rad; integrated from the spin in 2D.
+    #[serde(default)]
+    pub angle: Vec<f64>,
     /// The last `ghosts` entries are copies of particles owned by other ranks.
     #[serde(default)]
     pub ghosts: usize,
@@ -51,6 +62,12 @@ pub struct Record {
     pub material: u16,
     #[serde(default)]
     pub clump: u32,
+    #[serde(default)]
+    pub ellipse: bool,
+    #[serde(default)]
+    pub minor: f64,
+    #[serde(default)]
+    pub angle: f64,
 }
 
 /// One particle as read from input, before it enters the arrays.
@@ -90,6 +107,9 @@ impl Particles {
             inv_inertia: self.inv_inertia[i],
             material: self.material[i],
             clump: self.clump[i],
+            ellipse: self.ellipse[i],
+            minor: self.minor[i],
+            angle: self.angle[i],
         }
     }
 
@@ -106,6 +126,9 @@ impl Particles {
         self.inv_inertia.push(r.inv_inertia);
         self.material.push(r.material);
         self.clump.push(r.clump);
+        self.ellipse.push(r.ellipse);
+        self.minor.push(r.minor);
+        self.angle.push(r.angle);
     }
 
     /// Particles made of records (all owned).
@@ -123,7 +146,7 @@ impl Particles {
         macro_rules! cut {
             ($($f:ident),*) => { $( self.$f.truncate(n); )* };
         }
-        cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump);
+        cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
         self.ghosts = 0;
     }
 
@@ -143,6 +166,37 @@ impl Particles {
         self.inv_inertia.push(1.0 / inertia);
         self.material.push(material);
         self.clump.push(0);
+        self.ellipse.push(false);
+        self.minor.push(p.radius);
+        self.angle.push(0.0);
+    }
+
+    /// Make particle i an ellipse of aspect ratio a/b = `aspect` with the area
+    /// (and mass) of its present disc, pi a b = pi r^2, at orientation `angle`.
+    /// Mass stays that of the equivalent sphere (as for discs in 2D, LIGGGHTS's
+    /// convention); the moment of inertia is that of the ellipsoid with semi-axes
+    /// a, b, r about its c axis, m (a^2 + b^2) / 5 (2/5 m r^2 at aspect ratio 1).
+    pub fn make_ellipse(&mut self, i: usize, aspect: f64, angle: f64) {
+        let r = (self.radius[i] * self.minor[i]).sqrt();
+        self.set_shape(i, r * aspect.sqrt(), r / aspect.sqrt(), 1.0 / self.inv_mass[i]);
+        self.ellipse[i] = true;
+        self.angle[i] = angle;
+    }
+
+    /// Semi-axes a >= b and mass of particle i; inertia follows (m (a^2 + b^2) / 5).
+    pub fn set_shape(&mut self, i: usize, a: f64, b: f64, mass: f64) {
+        self.radius[i] = a;
+        self.minor[i] = b;
+        self.mass[i] = mass;
+        self.inv_mass[i] = 1.0 / mass;
+        // a disc keeps the sphere's 2/5 m r^2 to the bit
+        self.inv_inertia[i] = 1.0 / if a == b { 0.4 * mass * a * a } else { 0.2 * mass * (a * a + b * b) };
+    }
+
+    /// The ellipse of particle i (a round particle as an ellipse with a = b).
+    #[inline(always)]
+    pub fn ellipse_of(&self, i: usize) -> crate::contact::ellipse::Ellipse {
+        crate::contact::ellipse::Ellipse { c: self.pos[i], a: self.radius[i], b: self.minor[i], theta: self.angle[i] }
     }
 
     /// Sort every array by global id (stable local order); no ghosts.
@@ -158,7 +212,7 @@ impl Particles {
         macro_rules! permute {
             ($($f:ident),*) => { $( self.$f = perm.iter().map(|&i| self.$f[i]).collect(); )* };
         }
-        permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump);
+        permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
     }
 
     /// The particles as input records (for writing a cloud file).

@@ -28,7 +28,7 @@ use crate::parallel::{BalanceSettings, Parallel};
 use crate::particles::{Particles, Record};
 use std::rc::Rc;
 use std::time::Instant;
-use crate::walls::{Disc, Mesh, Plane, Shape, Wall};
+use crate::walls::{Disc, Mesh, Plane, Segments, Shape, Wall};
 use serde::{Deserialize, Serialize};
 
 /// Settings fixed for a run, derived from the case.
@@ -152,9 +152,42 @@ impl Simulation {
             p.push_sphere(i, mat.density, pmat);
         }
         p.sort_by_id();
+        // ellipses: 2D, Verlet, one rank
+        if !case.particles.ellipses.is_empty() {
+            let key = "particles.ellipses";
+            if case.simulation.dimension != Dimension::Two || case.simulation.integrator != IntegratorKind::Verlet {
+                return Err(TalusError::Input(format!("{path}: {key}: ellipses need simulation.dimension = \"2\" and the verlet integrator")));
+            }
+            if comm.size() > 1 {
+                return Err(TalusError::Input(format!("{path}: {key}: ellipses run on one rank only (this run has {})", comm.size())));
+            }
+            let in_clump: std::collections::HashSet<u64> = case.particles.clumps.iter().flatten().copied().collect();
+            for (k, e) in case.particles.ellipses.iter().enumerate() {
+                let i = p.id.binary_search(&e.id).map_err(|_| {
+                    TalusError::Input(format!("{path}: {key}[{k}].id = {}: no particle with this id", e.id))
+                })?;
+                if p.ellipse[i] {
+                    return Err(TalusError::Input(format!("{path}: {key}[{k}].id = {}: listed twice", e.id)));
+                }
+                if in_clump.contains(&e.id) {
+                    return Err(TalusError::Input(format!("{path}: {key}[{k}].id = {}: a clump member cannot be an ellipse", e.id)));
+                }
+                if !(e.aspect_ratio >= 1.0 && e.aspect_ratio <= 10.0) {
+                    return Err(TalusError::Input(format!(
+                        "{path}: {key}[{k}].aspect_ratio = {}: must be in [1, 10] (a/b, a the major semi-axis)",
+                        e.aspect_ratio
+                    )));
+                }
+                if !e.angle.is_finite() {
+                    return Err(TalusError::Input(format!("{path}: {key}[{k}].angle = {}: must be a finite number", e.angle)));
+                }
+                p.make_ellipse(i, e.aspect_ratio, e.angle);
+            }
+        }
 
-        // time step against the Rayleigh time of the smallest particle
-        let rmin = p.radius.iter().cloned().fold(f64::INFINITY, f64::min);
+        // time step against the Rayleigh time of the smallest particle (an
+        // ellipse counts with its minor semi-axis)
+        let rmin = p.minor.iter().cloned().fold(f64::INFINITY, f64::min);
         let tr = rayleigh_time(rmin, mat.density, mat.shear_modulus(), mat.poisson_ratio);
         let s = &case.simulation;
         let dt = match (s.timestep, s.timestep_rayleigh_fraction) {
@@ -177,6 +210,13 @@ impl Simulation {
             } else {
                 if let Some(d) = &w.disc {
                     Shape::Disc(Disc { center: Vec3::from(d.center), radius: d.radius })
+                } else if let Some(s) = &w.segment {
+                    Shape::Segments(Segments { segs: vec![[Vec3::from(s.from), Vec3::from(s.to)]] })
+                } else if let Some(b) = &w.boxed {
+                    let c = |x: f64, y: f64| Vec3::new(x, y, 0.0);
+                    let (l, h) = (b.lo, b.hi);
+                    let k = [c(l[0], l[1]), c(h[0], l[1]), c(h[0], h[1]), c(l[0], h[1])];
+                    Shape::Segments(Segments { segs: (0..4).map(|i| [k[i], k[(i + 1) % 4]]).collect() })
                 } else {
                     Shape::Mesh(Mesh::from_stl(&case.resolve(w.stl.as_ref().expect("validated")))?)
                 }
@@ -256,7 +296,11 @@ impl Simulation {
         let tol = case.particles.overlap_tolerance;
         for &(a, b) in &nl.pairs {
             let (a, b) = (a as usize, b as usize);
-            let ov = p.radius[a] + p.radius[b] - (p.pos[a] - p.pos[b]).norm();
+            let ov = if p.ellipse[a] || p.ellipse[b] {
+                crate::contact::ellipse::contact(&p.ellipse_of(a), &p.ellipse_of(b)).map_or(0.0, |c| c.overlap)
+            } else {
+                p.radius[a] + p.radius[b] - (p.pos[a] - p.pos[b]).norm()
+            };
             if ov > tol * p.radius[a].min(p.radius[b]) {
                 return Err(TalusError::Input(format!(
                     "{path}: particles {} and {} overlap by {ov:.4e} m initially, more than particles.overlap_tolerance = {tol} of the smaller radius",
@@ -547,7 +591,8 @@ impl Simulation {
         Ok(self.state.phase < self.case.phases.len())
     }
 
-    /// Set the owned particles' radii (in storage order), with mass and inertia
+    /// Set the owned particles' radii (in storage order; for an ellipse its
+    /// equivalent radius sqrt(a b), the aspect ratio kept), with mass and inertia
     /// from their material's density; the lists are rebuilt at the next step.
     /// (Used to compact a bed by growing the granules.)
     pub fn set_radii(&mut self, r: &[f64]) {
@@ -555,10 +600,8 @@ impl Simulation {
         for (i, &ri) in r.iter().enumerate().take(p.owned()) {
             let rho = self.case.materials[p.material[i] as usize].density;
             let m = rho * 4.0 / 3.0 * std::f64::consts::PI * ri.powi(3);
-            p.radius[i] = ri;
-            p.mass[i] = m;
-            p.inv_mass[i] = 1.0 / m;
-            p.inv_inertia[i] = 1.0 / (0.4 * m * ri * ri);
+            let s = (p.radius[i] / p.minor[i]).sqrt();
+            p.set_shape(i, ri * s, ri / s, m);
         }
         // a clump's members (dumbbell discs) stay touching at its centre
         let c = &mut self.state.clumps;

@@ -111,12 +111,28 @@ impl Disc {
     }
 }
 
+/// Straight segments in the x-y plane (2D walls): one segment, or a closed box
+/// of four; each segment is a feature, touched from either side, its end
+/// points rounded (a disc meets the nearest point of the segment).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Segments {
+    pub segs: Vec<[Vec3; 2]>,
+}
+
+impl Segments {
+    #[inline(always)]
+    pub fn segment(&self, k: usize) -> crate::contact::ellipse::Segment {
+        crate::contact::ellipse::Segment { p: self.segs[k][0], q: self.segs[k][1] }
+    }
+}
+
 /// The geometry of a wall.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub enum Shape {
     Plane(Plane),
     Mesh(Mesh),
     Disc(Disc),
+    Segments(Segments),
 }
 
 /// A named wall with its material, prescribed velocity and accumulated load.
@@ -153,6 +169,12 @@ impl Wall {
             Shape::Plane(p) => p.point += d,
             Shape::Mesh(m) => m.translate(d),
             Shape::Disc(b) => b.center += d,
+            Shape::Segments(s) => {
+                for seg in &mut s.segs {
+                    seg[0] += d;
+                    seg[1] += d;
+                }
+            }
         }
     }
 
@@ -171,6 +193,13 @@ impl Wall {
                     out.push(0);
                 }
             }
+            Shape::Segments(s) => {
+                for k in 0..s.segs.len() {
+                    if s.segment(k).disc_contact(c, r + reach).is_some() {
+                        out.push(k as u32);
+                    }
+                }
+            }
         }
     }
 
@@ -181,6 +210,29 @@ impl Wall {
             Shape::Plane(p) => p.contact(c, r),
             Shape::Mesh(m) => m.contact(feature as usize, c, r),
             Shape::Disc(b) => b.contact(c, r),
+            Shape::Segments(s) => s
+                .segment(feature as usize)
+                .disc_contact(c, r)
+                .map(|(n, overlap, point)| WallHit { n, overlap, point, feature }),
+        }
+    }
+
+    /// The contact of an ellipse with one feature: the normal from the wall to
+    /// the ellipse, the overlap and the ellipse's deepest point (its boundary
+    /// point farthest into the wall). STL meshes do not take ellipses (3D).
+    #[inline(always)]
+    pub fn ellipse_contact(&self, feature: u32, e: &crate::contact::ellipse::Ellipse) -> Option<WallHit> {
+        use crate::contact::ellipse::{contact_fast, Ellipse};
+        let hit = |c: crate::contact::ellipse::EllipseContact| WallHit { n: c.n, overlap: c.overlap, point: c.point, feature };
+        match &self.shape {
+            // one-sided, as for spheres: a centre behind the plane makes no contact
+            Shape::Plane(p) => (p.distance(&e.c) > 0.0).then(|| e.wall_contact(p.point, p.normal)).flatten().map(hit),
+            Shape::Mesh(_) => None,
+            Shape::Disc(b) => {
+                let disc = Ellipse { c: b.center, a: b.radius, b: b.radius, theta: 0.0 };
+                contact_fast(&disc, e).map(|c| WallHit { n: c.n, overlap: c.overlap, point: e.support_point(-c.n.x, -c.n.y), feature })
+            }
+            Shape::Segments(s) => s.segment(feature as usize).ellipse_contact(e).map(hit),
         }
     }
 

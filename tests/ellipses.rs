@@ -1,0 +1,227 @@
+//! Ellipses in the engine (2D) and straight segment walls: rigid-body impacts
+//! against the impulse solution, restitution, rest on a floor, boxes.
+
+mod common;
+use common::*;
+use talus::dim::Vec3;
+
+/// A 2D case: material (E = 1e9, nu 0.3, rho 3900, restitution `e`, friction
+/// `mu`), the given particle list and extra lines, no gravity unless given.
+fn case2d(e: f64, mu: f64, gravity: f64, particles: &str, extra: &str, dt: f64) -> Result<talus::sim::Simulation, String> {
+    let t = format!(
+        r#"
+[simulation]
+dimension = "2"
+timestep = {dt:e}
+gravity = [0.0, {g:e}, 0.0]
+domain = {{ lo = [-0.05, -0.05, -0.001], hi = [0.05, 0.05, 0.001] }}
+
+[contact]
+model = "hertz"
+
+[[material]]
+name = "m"
+youngs_modulus = 1.0e9
+poisson_ratio = 0.3
+density = 3900.0
+restitution = {e}
+friction = {mu}
+
+[particles]
+material = "m"
+{particles}
+
+{extra}
+
+[[phase]]
+name = "run"
+duration = 1.0
+"#,
+        g = -gravity
+    );
+    talus::case::Case::parse(&t, &cases_dir().join("ellipse.toml"))
+        .and_then(talus::sim::Simulation::new)
+        .map_err(|e| e.to_string())
+}
+
+fn run(sim: &mut talus::sim::Simulation, steps: usize) {
+    for _ in 0..steps {
+        sim.step().unwrap();
+    }
+}
+
+const WALL_X: &str = r#"
+[[wall]]
+name = "w"
+material = "m"
+plane = { point = [0.003, 0.0, 0.0], normal = [-1.0, 0.0, 0.0] }
+"#;
+
+#[test]
+fn a_tilted_ellipse_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_solution() {
+    // a = 1.5 mm, b = 1 mm (equivalent radius sqrt(1.5) mm), major axis at 30 degrees,
+    // moving at 0.1 m/s along +x into a wall; elastic and frictionless
+    let (a, b, th) = (1.5e-3f64, 1.0e-3f64, 30f64.to_radians());
+    let r = (a * b).sqrt();
+    let parts = format!(
+        "list = [ {{ id = 1, position = [0.0015, 0.0, 0.0], velocity = [0.1, 0.0, 0.0], radius = {r:e} }} ]\nellipses = [ {{ id = 1, aspect_ratio = {}, angle = {th} }} ]",
+        a / b
+    );
+    let mut sim = case2d(1.0, 0.0, 0.0, &parts, WALL_X, 2e-8).unwrap();
+    run(&mut sim, 300_000);
+    let p = &sim.state.p;
+    assert!(sim.state.contacts == 0, "contact over");
+    // impulse solution: lever arm from the centre to the support point along +x
+    let (s, c) = th.sin_cos();
+    let (ax, ay) = (a * a * c * c + b * b * s * s, (a * a - b * b) * s * c); // A e_x
+    let h = ax.sqrt();
+    let ry = ay / h;
+    let m = 3900.0 * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    let inertia = 0.2 * m * (a * a + b * b);
+    let j = 2.0 * 0.1 / (1.0 / m + ry * ry / inertia);
+    let (vx, w) = (0.1 - j / m, ry * j / inertia);
+    assert!((p.vel[0].x - vx).abs() < 0.01 * 0.1, "v_x {} vs impulse solution {vx}", p.vel[0].x);
+    assert!((p.omega[0].z - w).abs() < 0.01 * w.abs(), "spin {} vs impulse solution {w}", p.omega[0].z);
+    assert!(p.vel[0].y.abs() < 1e-9, "frictionless wall along x: no y velocity {}", p.vel[0].y);
+    // energy conserved (elastic)
+    let ke = 0.5 * m * p.vel[0].norm_squared() + 0.5 * inertia * p.omega[0].z.powi(2);
+    assert!((ke / (0.5 * m * 0.01) - 1.0).abs() < 1e-3, "kinetic energy ratio {}", ke / (0.5 * m * 0.01));
+}
+
+#[test]
+fn a_tilted_dumbbell_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_solution() {
+    // two 1 mm discs joined at C = 0, tilted 30 degrees, moving at 0.1 m/s into the wall
+    let th = 30f64.to_radians();
+    let (s, c) = th.sin_cos();
+    let rl = 1.0e-3;
+    let parts = format!(
+        "list = [\n {{ id = 1, position = [{:e}, {:e}, 0.0], velocity = [0.1, 0.0, 0.0], radius = {rl:e} }},\n {{ id = 2, position = [{:e}, {:e}, 0.0], velocity = [0.1, 0.0, 0.0], radius = {rl:e} }} ]\nclumps = [[1, 2]]",
+        0.001 + rl * c, rl * s, 0.001 - rl * c, -rl * s
+    );
+    let mut sim = case2d(1.0, 0.0, 0.0, &parts, WALL_X, 2e-8).unwrap();
+    run(&mut sim, 300_000);
+    assert!(sim.state.contacts == 0, "contact over");
+    let m1 = 3900.0 * 4.0 / 3.0 * std::f64::consts::PI * rl.powi(3);
+    let m = 2.0 * m1;
+    let inertia = 2.0 * 0.4 * m1 * rl * rl + m * rl * rl;
+    let ry = rl * s; // lever arm from C to the contact point, y part
+    let j = 2.0 * 0.1 / (1.0 / m + ry * ry / inertia);
+    let (vx, w) = (0.1 - j / m, ry * j / inertia);
+    let cl = &sim.state.clumps;
+    assert!((cl.vel[0].x - vx).abs() < 0.01 * 0.1, "v_x {} vs impulse solution {vx}", cl.vel[0].x);
+    assert!((cl.omega[0] - w).abs() < 0.01 * w.abs(), "spin {} vs impulse solution {w}", cl.omega[0]);
+}
+
+#[test]
+fn ellipses_meeting_tip_to_tip_rebound_with_restitution_e_and_no_spin() {
+    for e in [0.3, 0.7] {
+        let r = 1e-3;
+        let parts = format!(
+            "list = [\n {{ id = 1, position = [-0.0013, 0.0, 0.0], velocity = [0.1, 0.0, 0.0], radius = {r:e} }},\n {{ id = 2, position = [0.0013, 0.0, 0.0], velocity = [-0.1, 0.0, 0.0], radius = {r:e} }} ]\nellipses = [ {{ id = 1, aspect_ratio = 1.375 }}, {{ id = 2, aspect_ratio = 1.375 }} ]"
+        );
+        let mut sim = case2d(e, 0.3, 0.0, &parts, "", 2e-8).unwrap();
+        run(&mut sim, 200_000);
+        let p = &sim.state.p;
+        assert_eq!(sim.state.contacts, 0);
+        assert!((p.vel[1].x - 0.1 * e).abs() < 0.005 * 0.1, "e = {e}: v_out {}", p.vel[1].x);
+        assert!(p.omega[0].z.abs() < 1e-9 && p.vel[0].y.abs() < 1e-12);
+    }
+}
+
+#[test]
+fn an_ellipse_rocking_on_its_flank_has_the_rolling_pendulum_period() {
+    // a = 1.5 mm, b = 1 mm lying on a rough floor, tilted by 3 degrees and let go.
+    // Rolling without slip about the contact point: the centre of curvature there
+    // lies a^2 / b above the floor, the centre of mass b, so the metacentric
+    // height is (a^2 - b^2) / b and omega^2 = g (a^2 - b^2) / b / (I / m + b^2).
+    let (a, b) = (1.5e-3f64, 1.0e-3f64);
+    let r = (a * b).sqrt();
+    let th = 3f64.to_radians();
+    let (s, c) = th.sin_cos();
+    let reach = (a * a * s * s + b * b * c * c).sqrt();
+    let parts = format!(
+        "list = [ {{ id = 1, position = [0.0, {reach:e}, 0.0], radius = {r:e} }} ]\nellipses = [ {{ id = 1, aspect_ratio = {}, angle = {th} }} ]",
+        a / b
+    );
+    let floor = "[[wall]]\nname = \"floor\"\nmaterial = \"m\"\nplane = { point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }\n";
+    let dt = 2e-7;
+    let mut sim = case2d(0.3, 0.5, 9.81, &parts, floor, dt).unwrap();
+    let mut crossings = Vec::new();
+    let mut prev = sim.state.p.angle[0];
+    while crossings.len() < 3 && sim.state.time < 0.3 {
+        sim.step().unwrap();
+        let ang = sim.state.p.angle[0];
+        if prev > 0.0 && ang <= 0.0 || prev < 0.0 && ang >= 0.0 {
+            crossings.push(sim.state.time - dt * ang / (ang - prev));
+        }
+        prev = ang;
+    }
+    assert_eq!(crossings.len(), 3, "rocks");
+    let period = crossings[2] - crossings[0];
+    let w2 = 9.81 * (a * a - b * b) / b / (0.2 * (a * a + b * b) + b * b);
+    let expect = std::f64::consts::TAU / w2.sqrt();
+    assert!((period / expect - 1.0).abs() < 0.02, "period {period} s vs rolling pendulum {expect} s");
+    // it stays on its flank
+    let p = &sim.state.p;
+    assert!((p.pos[0].y - b).abs() < 0.01 * b, "height {} vs b = {b}", p.pos[0].y);
+}
+
+#[test]
+fn a_disc_bounces_off_a_segment_face_with_e_and_off_its_end_along_the_centre_line() {
+    let seg = "[[wall]]\nname = \"s\"\nmaterial = \"m\"\nsegment = { from = [-0.004, 0.0015, 0.0], to = [0.004, 0.0015, 0.0] }\n";
+    // face: straight up into the segment from below
+    let parts = "list = [ { id = 1, position = [0.0, 0.0004, 0.0], velocity = [0.0, 0.1, 0.0], radius = 0.001 } ]";
+    let mut sim = case2d(0.5, 0.0, 0.0, parts, seg, 2e-8).unwrap();
+    run(&mut sim, 200_000);
+    let v = sim.state.p.vel[0];
+    assert!((v.y + 0.05).abs() < 0.005 * 0.1 && v.x.abs() < 1e-12, "face bounce {v}");
+    // end point: moving along +x at the height of the segment towards its left end
+    let parts = "list = [ { id = 1, position = [-0.0049, 0.0021, 0.0], velocity = [0.1, 0.0, 0.0], radius = 0.001 } ]";
+    let mut sim = case2d(1.0, 0.0, 0.0, parts, seg, 2e-8).unwrap();
+    run(&mut sim, 300_000);
+    let (p, v) = (sim.state.p.pos[0], sim.state.p.vel[0]);
+    assert!((v.norm() - 0.1).abs() < 1e-3 * 0.1, "elastic: speed {}", v.norm());
+    // the impulse is along the line from the end point to the centre at impact:
+    // (dx, dy) with dy = 0.6 mm and |d| = r, so the outgoing velocity satisfies
+    // v = v0 - 2 (v0.n) n with n = (-0.8, 0.6)
+    let n = Vec3::new(-0.8, 0.6, 0.0);
+    let v0 = Vec3::new(0.1, 0.0, 0.0);
+    let expect = v0 - n * (2.0 * v0.dot(&n));
+    assert!((v - expect).norm() < 0.01 * 0.1, "end bounce {v} vs {expect} (at {p})");
+}
+
+#[test]
+fn a_box_wall_holds_a_settled_bed_and_carries_its_weight() {
+    let mut list = String::from("list = [\n");
+    let mut k = 0;
+    for i in 0..6 {
+        for j in 0..4 {
+            k += 1;
+            let (x, y) = (-0.005 + 0.0021 * i as f64, 0.0011 + 0.0023 * j as f64);
+            list += &format!(" {{ id = {k}, position = [{x:e}, {y:e}, 0.0], radius = 0.001 }},\n");
+        }
+    }
+    list += "]\nellipses = [ { id = 3, aspect_ratio = 1.3, angle = 0.4 }, { id = 10, aspect_ratio = 1.2 } ]";
+    let boxw = "[[wall]]\nname = \"box\"\nmaterial = \"m\"\nbox = { lo = [-0.0065, 0.0, 0.0], hi = [0.0065, 0.02, 0.0] }\n";
+    let mut sim = case2d(0.3, 0.3, 9.81, &list, boxw, 2e-7).unwrap();
+    run(&mut sim, 1_000_000);
+    let p = &sim.state.p;
+    let weight: f64 = p.mass.iter().sum::<f64>() * 9.81;
+    assert!(p.vel.iter().all(|v| v.norm() < 1e-3), "settled");
+    assert!((sim.state.walls[0].force.y / -weight - 1.0).abs() < 0.01, "box force {} vs weight {weight}", sim.state.walls[0].force);
+    assert!(p.pos.iter().all(|x| x.x.abs() < 0.0065 && x.y > 0.0), "all inside");
+}
+
+#[test]
+fn ellipse_and_segment_input_errors_name_the_key() {
+    let one = "list = [ { id = 1, position = [0.0, 0.0, 0.0], radius = 0.001 } ]";
+    for (parts, extra, key) in [
+        (format!("{one}\nellipses = [ {{ id = 1, aspect_ratio = 0.5 }} ]"), "", "particles.ellipses[0].aspect_ratio = 0.5"),
+        (format!("{one}\nellipses = [ {{ id = 7, aspect_ratio = 1.5 }} ]"), "", "particles.ellipses[0].id = 7"),
+        (one.to_string(), "[[wall]]\nname = \"s\"\nmaterial = \"m\"\nsegment = { from = [0.0, 0.0, 0.0], to = [0.0, 0.0, 0.0] }\n", "wall.s.segment"),
+        (one.to_string(), "[[wall]]\nname = \"b\"\nmaterial = \"m\"\nbox = { lo = [0.0, 0.0, 0.0], hi = [-1.0, 1.0, 0.0] }\n", "wall.b.box"),
+    ] {
+        let err = case2d(0.5, 0.3, 0.0, &parts, extra, 1e-7).err().unwrap_or_else(|| panic!("accepted: {parts} {extra}"));
+        assert!(err.contains(key), "{err}");
+    }
+}
