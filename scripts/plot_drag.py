@@ -8,6 +8,7 @@ snapshots.csv. Writes, per case into its folder: <case>_drag.png (mean drag
 against displacement with a +-1 std band, the averaging window shaded: Fig. 7),
 <case>_snapshots_layers.png and <case>_snapshots_cluster.png (Figs. 9-12); and
 into --out (default: the parent of the first OUT_DIR): drag_compare.png (Fig. 13),
+drag_ellipse_vs_disc.png (e0 against c1, Fig. 8, when both are given),
 drag_density.png (pairs differing only by density: Fig. 14) and drag_table.md.
 """
 import argparse
@@ -22,7 +23,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.patches import Circle  # noqa: E402
+from matplotlib.patches import Circle, Ellipse  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -32,8 +33,13 @@ def load(d):
     if not (d / "summary.json").exists():
         sys.exit(f"error: {d} has no summary.json (run `talus drag` first)")
     s = json.loads((d / "summary.json").read_text())
+    if not (d / "drag_vs_displacement.csv").exists():
+        sys.exit(f"error: {d} has no drag_vs_displacement.csv")
     a = np.loadtxt(d / "drag_vs_displacement.csv", delimiter=",", skiprows=1, ndmin=2)
-    case = tomllib.loads((ROOT / "cases" / "drag" / f"{s['case']}.toml").read_text())
+    toml = ROOT / "cases" / "drag" / f"{s['case']}.toml"
+    if not toml.exists():
+        sys.exit(f"error: no case file {toml} for {d}")
+    case = tomllib.loads(toml.read_text())
     snaps = list(csv.DictReader(open(d / "snapshots.csv"))) if (d / "snapshots.csv").exists() else []
     return d, s, a, case, snaps
 
@@ -58,23 +64,33 @@ def snapshots(d, s, snaps):
     if not snaps:
         return
     disp = sorted({float(r["displacement_m"]) for r in snaps})
+    # one container for all panels: x = 0..max, y = 0..max over every snapshot
+    xmax = max(float(r["x_m"]) + float(r["radius_m"]) for r in snaps)
+    ymax = max(float(r["y_m"]) + float(r["radius_m"]) for r in snaps)
+    h = 4 * ymax / xmax + 1  # panel height follows the container's shape
     for mode in ("layers", "cluster"):
-        fig, axes = plt.subplots(1, len(disp), figsize=(4 * len(disp), 4.8))
+        fig, axes = plt.subplots(1, len(disp), figsize=(4 * len(disp), h))
         for ax, dd in zip(np.atleast_1d(axes), disp):
             rows = [r for r in snaps if float(r["displacement_m"]) == dd]
-            xmax = max(float(r["x_m"]) + float(r["radius_m"]) for r in rows)
-            ymax = max(float(r["y_m"]) + float(r["radius_m"]) for r in rows)
             for r in rows:
                 if mode == "layers":
                     c = "tab:blue" if int(r["layer"]) % 2 == 0 else "tab:orange"
                 else:
                     c = "tab:red" if r["cluster"] == "1" else "0.75"
-                ax.add_patch(Circle((float(r["x_m"]) * 1e3, float(r["y_m"]) * 1e3), float(r["radius_m"]) * 1e3, fc=c, ec="k", lw=0.2))
+                xy = (float(r["x_m"]) * 1e3, float(r["y_m"]) * 1e3)
+                a = float(r["radius_m"]) * 1e3
+                b = float(r.get("minor_m") or r["radius_m"]) * 1e3
+                if b < a:  # an ellipse: semi-axes a, b, major axis at angle_rad
+                    ax.add_patch(Ellipse(xy, 2 * a, 2 * b, angle=np.degrees(float(r["angle_rad"])), fc=c, ec="k", lw=0.2))
+                else:
+                    ax.add_patch(Circle(xy, a, fc=c, ec="k", lw=0.2))
             r0 = rows[0]
             ax.add_patch(Circle((float(r0["cylinder_x_m"]) * 1e3, float(r0["cylinder_y_m"]) * 1e3), float(r0["cylinder_radius_m"]) * 1e3, fc="k"))
             ax.set_xlim(0, xmax * 1e3)
             ax.set_ylim(0, ymax * 1e3)
             ax.set_aspect("equal")
+            ax.set_xlabel("x (mm)")
+            ax.set_ylabel("y (mm)")
             ax.set_title(f"{s['case']}: s = {dd * 1e3:.1f} mm")
         fig.tight_layout()
         fig.savefig(d / f"{s['case']}_snapshots_{mode}.png", dpi=110)
@@ -104,20 +120,46 @@ def main():
     fig.tight_layout()
     fig.savefig(out / "drag_compare.png", dpi=120)
     plt.close(fig)
+    # Fig. 8: the ellipse code at aspect ratio 1 (e0) against the disc code (c1)
+    by_case = {s["case"]: (s, arr) for _, s, arr, _, _ in runs}
+    if "e0" in by_case and "c1" in by_case:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for k, lab in (("c1", "disc code (c1)"), ("e0", "ellipse code, aspect ratio 1 (e0)")):
+            s, arr = by_case[k]
+            x = arr[:, 0] * 1e3
+            ax.plot(x, arr[:, 1], lw=1, label=f"{lab}: {s['mean_drag_n']:.0f} +- {s['std_drag_n']:.0f} N")
+            ax.fill_between(x, arr[:, 1] - arr[:, 2], arr[:, 1] + arr[:, 2], alpha=0.2)
+        ax.set_xlabel("displacement (mm)")
+        ax.set_ylabel("mean drag (N)")
+        ax.set_title("ellipse code at aspect ratio 1 against the disc code")
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(out / "drag_ellipse_vs_disc.png", dpi=120)
+        plt.close(fig)
     # density pairs: same shape, aspect ratio and size
     groups = {}
     for r in rows:
         groups.setdefault((r[1], r[2], r[3]), []).append(r)
     pairs = [sorted(g, key=lambda r: r[4]) for g in groups.values() if len({r[4] for r in g}) > 1]
     if pairs:
+        # colour by density (not by position: a group may hold c1 and c11 alike)
+        dens = sorted({r[4] for g in pairs for r in g})
+        colour = {v: f"C{i}" for i, v in enumerate(dens)}
         fig, ax = plt.subplots(figsize=(6, 4))
-        for k, g in enumerate(pairs):
-            for j, r in enumerate(g):
-                ax.bar(3 * k + j, r[5], yerr=r[6], color=["tab:blue", "tab:orange"][j % 2], capsize=3)
-                ax.text(3 * k + j, 0, r[0], ha="center", va="bottom", color="w")
+        xs, names, x = [], [], 0
+        for g in pairs:
+            for r in g:
+                ax.bar(x, r[5], yerr=r[6], color=colour[r[4]], capsize=3)
+                xs.append(x)
+                names.append(r[0])
+                x += 1
+            x += 1  # gap between groups
+        for v in dens:
+            ax.bar(0, 0, color=colour[v], label=f"{v:.3g} kg/m3")
+        ax.set_xticks(xs, names)
         ax.set_ylabel("mean drag (N)")
-        ax.set_xticks([])
-        ax.set_title("density 3.9e3 (blue) against 3.9e4 (orange) kg/m3")
+        ax.set_title("mean drag +-1 std: density pairs")
+        ax.legend()
         fig.tight_layout()
         fig.savefig(out / "drag_density.png", dpi=120)
         plt.close(fig)
