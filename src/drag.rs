@@ -211,7 +211,7 @@ impl DragCase {
                 && (x - cx).powi(2) + (y - cy).powi(2) > (r + rc).powi(2)
                 && placed.iter().all(|&(a, b, q)| (x - a).powi(2) + (y - b).powi(2) > (r + q).powi(2))
         };
-        let cyl = Ellipse { c: Vec3::new(cx, cy, 0.0), a: rc, b: rc, theta: 0.0 };
+        let cyl = Ellipse::new(Vec3::new(cx, cy, 0.0), rc, rc, 0.0);
         let free_ellipse = |bodies: &[Ellipse], e: &Ellipse| {
             let (c, hx, hy) = (e.c, e.support(1.0, 0.0), e.support(0.0, 1.0));
             c.x > hx
@@ -250,7 +250,7 @@ impl DragCase {
                     let l = d.aspect_ratio.sqrt();
                     // angles from their own stream: at aspect ratio 1 the bed is the disc bed
                     let th = std::f64::consts::PI * angle_rng.random::<f64>();
-                    let e = Ellipse { c: Vec3::new(x, y, 0.0), a: s0 * rg * l, b: s0 * rg / l, theta: th };
+                    let e = Ellipse::new(Vec3::new(x, y, 0.0), s0 * rg * l, s0 * rg / l, th);
                     if free_ellipse(&bodies, &e) {
                         bodies.push(e);
                         placed.push((x, y, s0 * rg));

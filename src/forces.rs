@@ -76,6 +76,9 @@ fn sweep<L: NormalLaw>(
         p.force[i] = s.gravity * p.mass[i];
         p.torque[i] = Vec3::zeros();
     }
+    // ellipses (2D): each body once per sweep (orientation sines and cosines)
+    let shapes: Vec<ellipse::Ellipse> =
+        if p.ellipse.iter().any(|&e| e) { (0..p.len()).map(|i| p.ellipse_of(i)).collect() } else { Vec::new() };
     let mut contacts = 0usize;
     let mut owned_pairs = 0usize;
     let n_own = p.owned();
@@ -94,8 +97,8 @@ fn sweep<L: NormalLaw>(
         if p.ellipse[a] || p.ellipse[b] {
             // ellipses (2D): contact geometry by the certified Newton search,
             // body 1 = b, body 2 = a, so n points from b to a as below
-            let (ea, eb) = (p.ellipse_of(a), p.ellipse_of(b));
-            let Some(ec) = ellipse::contact_fast(&eb, &ea) else {
+            let (ea, eb) = (&shapes[a], &shapes[b]);
+            let Some(ec) = ellipse::contact_fast(eb, ea) else {
                 if *hist != Vec3::zeros() {
                     *hist = Vec3::zeros();
                 }
@@ -160,7 +163,7 @@ fn sweep<L: NormalLaw>(
             hits.push(match (wall.active, p.ellipse[i]) {
                 (false, _) => None,
                 (true, false) => wall.contact(feat, &p.pos[i], p.radius[i]),
-                (true, true) => wall.ellipse_contact(feat, &p.ellipse_of(i)),
+                (true, true) => wall.ellipse_contact(feat, &shapes[i]),
             });
         }
         merge_coincident(&nl.wall_feat[lo..hi], &mut hits, p.radius[i]);
@@ -178,7 +181,7 @@ fn sweep<L: NormalLaw>(
                 // s.wall_arm_overlap of the overlap back towards the ellipse
                 let point = hit.point + hit.n * (s.wall_arm_overlap * hit.overlap);
                 let ri = point - p.pos[i];
-                let rho = p.ellipse_of(i).curvature_radius(-hit.n.x, -hit.n.y);
+                let rho = shapes[i].curvature_radius(-hit.n.x, -hit.n.y);
                 let pi = match wall.curvature_radius() {
                     None => PairInertia::wall(rho, p.mass[i]),
                     Some(rw) => PairInertia::curved_wall(rho, rw, p.mass[i]),

@@ -196,7 +196,7 @@ impl Particles {
     /// The ellipse of particle i (a round particle as an ellipse with a = b).
     #[inline(always)]
     pub fn ellipse_of(&self, i: usize) -> crate::contact::ellipse::Ellipse {
-        crate::contact::ellipse::Ellipse { c: self.pos[i], a: self.radius[i], b: self.minor[i], theta: self.angle[i] }
+        crate::contact::ellipse::Ellipse::new(self.pos[i], self.radius[i], self.minor[i], self.angle[i])
     }
 
     /// Sort every array by global id (stable local order); no ghosts.

@@ -24,7 +24,7 @@
 
 use crate::dim::Vec3;
 
-/// An ellipse in the x-y plane.
+/// An ellipse in the x-y plane (make it with [`Ellipse::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ellipse {
     pub c: Vec3,
@@ -33,6 +33,8 @@ pub struct Ellipse {
     pub b: f64,
     /// Orientation of the body x axis (rad).
     pub theta: f64,
+    /// sin and cos of theta.
+    pub sc: (f64, f64),
 }
 
 /// A contact: overlap > 0, unit normal from body 1 to body 2, contact point.
@@ -44,10 +46,14 @@ pub struct EllipseContact {
 }
 
 impl Ellipse {
+    pub fn new(c: Vec3, a: f64, b: f64, theta: f64) -> Ellipse {
+        Ellipse { c, a, b, theta, sc: theta.sin_cos() }
+    }
+
     /// A n (the support point offset is A n / h(n)).
     #[inline(always)]
     fn a_times(&self, nx: f64, ny: f64) -> (f64, f64) {
-        let (s, c) = self.theta.sin_cos();
+        let (s, c) = self.sc;
         // local components
         let u = c * nx + s * ny;
         let v = -s * nx + c * ny;
@@ -151,8 +157,8 @@ pub fn contact(e1: &Ellipse, e2: &Ellipse) -> Option<EllipseContact> {
 /// With p = n^T A n, q = t^T A n, r = t^T A t (t = dn/dphi): h = sqrt(p),
 /// h' = q / h, h'' = (r - p) / h - q^2 / h^3.
 #[inline(always)]
-fn support_derivatives(e: &Ellipse, cs: (f64, f64), nx: f64, ny: f64) -> (f64, f64, f64) {
-    let (st, ct) = cs;
+fn support_derivatives(e: &Ellipse, nx: f64, ny: f64) -> (f64, f64, f64) {
+    let (st, ct) = e.sc;
     let u = ct * nx + st * ny; // cos(phi - theta)
     let v = -st * nx + ct * ny; // sin(phi - theta)
     let (a2, b2) = (e.a * e.a, e.b * e.b);
@@ -204,16 +210,13 @@ pub fn newton_contact(e1: &Ellipse, e2: &Ellipse) -> Option<Option<EllipseContac
         return None;
     }
     let (n0x, n0y) = (d.x / dist, d.y / dist);
-    let cs1 = e1.theta.sin_cos();
-    let cs2 = e2.theta.sin_cos();
-    let eval = |x: f64| {
-        let (sx, cx) = x.sin_cos();
+    let eval = |sx: f64, cx: f64| {
         let (nx, ny) = (n0x * cx - n0y * sx, n0x * sx + n0y * cx);
-        let (h1, d1, dd1) = support_derivatives(e1, cs1, nx, ny);
-        let (h2, d2, dd2) = support_derivatives(e2, cs2, nx, ny);
+        let (h1, d1, dd1) = support_derivatives(e1, nx, ny);
+        let (h2, d2, dd2) = support_derivatives(e2, nx, ny);
         (dist * cx - h1 - h2, -dist * sx - d1 - d2, -dist * cx - dd1 - dd2, nx, ny)
     };
-    let (s0, mut ds, mut dds, _, _) = eval(0.0);
+    let (s0, mut ds, mut dds, _, _) = eval(0.0, 1.0);
     if s0 > 0.0 {
         return Some(None);
     }
@@ -224,8 +227,10 @@ pub fn newton_contact(e1: &Ellipse, e2: &Ellipse) -> Option<Option<EllipseContac
     if margin <= k {
         return None;
     }
-    let beta = (margin / dist).clamp(-1.0, 1.0).acos();
-    let (mut lo, mut hi) = (-beta, beta);
+    // the arc |x| <= beta, cos(beta) = margin / dist, holds the maximum; its
+    // end points are computed only if a Newton step leaves it
+    let cmin = margin / dist;
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
     let mut x = 0.0;
     let (mut s, mut nx, mut ny) = (s0, n0x, n0y);
     for _ in 0..60 {
@@ -235,13 +240,18 @@ pub fn newton_contact(e1: &Ellipse, e2: &Ellipse) -> Option<Option<EllipseContac
             hi = x;
         }
         let mut xn = x - ds / dds;
-        if !(xn > lo && xn < hi) {
+        let (mut sx, mut cx) = xn.sin_cos();
+        if !(xn > lo && xn < hi && cx >= cmin) {
+            let beta = cmin.clamp(-1.0, 1.0).acos();
+            lo = lo.max(-beta);
+            hi = hi.min(beta);
             xn = 0.5 * (lo + hi);
+            (sx, cx) = xn.sin_cos();
         }
-        let done = (xn - x).abs() < 1e-13;
+        // quadratic convergence: a step below 1e-9 leaves an error far below round-off in s
+        let done = (xn - x).abs() < 1e-9;
         x = xn;
-        let r = eval(x);
-        (s, ds, dds, nx, ny) = r;
+        (s, ds, dds, nx, ny) = eval(sx, cx);
         if s > 0.0 {
             return Some(None);
         }
@@ -325,7 +335,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn ell(x: f64, y: f64, a: f64, b: f64, t: f64) -> Ellipse {
-        Ellipse { c: Vec3::new(x, y, 0.0), a, b, theta: t }
+        Ellipse::new(Vec3::new(x, y, 0.0), a, b, t)
     }
 
     /// Whether two ellipses' inscribed polygons (k vertices) overlap (separating axis over polygon edges).

@@ -229,7 +229,7 @@ impl Wall {
             Shape::Plane(p) => (p.distance(&e.c) > 0.0).then(|| e.wall_contact(p.point, p.normal)).flatten().map(hit),
             Shape::Mesh(_) => None,
             Shape::Disc(b) => {
-                let disc = Ellipse { c: b.center, a: b.radius, b: b.radius, theta: 0.0 };
+                let disc = Ellipse::new(b.center, b.radius, b.radius, 0.0);
                 contact_fast(&disc, e).map(|c| WallHit { n: c.n, overlap: c.overlap, point: e.support_point(-c.n.x, -c.n.y), feature })
             }
             Shape::Segments(s) => s.segment(feature as usize).ellipse_contact(e).map(hit),
