@@ -88,57 +88,53 @@ fn sweep<L: NormalLaw>(
         let rsum = p.radius[a] + p.radius[b];
         let dist2 = d.norm_squared();
         let hist = &mut nl.pair_hist[k];
-        if dist2 >= rsum * rsum {
+        // geometry, pair inertia, contact-point and shear velocities, and the
+        // lever arms of an ellipse contact (None: along n, as for spheres)
+        let found = if dist2 >= rsum * rsum {
+            None
+        } else if p.ellipse[a] || p.ellipse[b] {
+            // ellipses (2D): contact geometry by the certified Newton search,
+            // body 1 = b, body 2 = a, so n points from b to a as below
+            let (ea, eb) = (&shapes[a], &shapes[b]);
+            ellipse::contact_fast(eb, ea).map(|ec| {
+                let n = ec.n;
+                let (ra, rb) = (ec.point - p.pos[a], ec.point - p.pos[b]);
+                // Hertz with the local radii of curvature at the contact
+                let (rho_a, rho_b) = (ea.curvature_radius(-n.x, -n.y), eb.curvature_radius(n.x, n.y));
+                let mut pi = nl.pair_inertia[k];
+                pi.r_eff = rho_a * rho_b / (rho_a + rho_b);
+                let g = ContactGeom { n, overlap: ec.overlap, arm_i: ra.norm(), arm_j: rb.norm() };
+                let v = (p.vel[a] + p.omega[a].cross(&ra)) - (p.vel[b] + p.omega[b].cross(&rb));
+                (g, pi, v, v, Some((ra, rb)))
+            })
+        } else {
+            let dist = dist2.sqrt();
+            let nrm = d * (1.0 / dist);
+            let overlap = rsum - dist;
+            let g = ContactGeom { n: nrm, overlap, arm_i: p.radius[a] - 0.5 * overlap, arm_j: p.radius[b] - 0.5 * overlap };
+            let v = relative_velocity(&g, p.vel[a], p.vel[b], p.omega[a], p.omega[b]);
+            let vs = match s.tang.kinematics {
+                ShearKinematics::ContactPoint => v,
+                ShearKinematics::FullRadii => yade_shear_velocity(
+                    nrm, overlap, p.radius[a], p.radius[b], p.vel[a], p.vel[b], p.omega[a], p.omega[b],
+                ),
+            };
+            Some((g, nl.pair_inertia[k], v, vs, None))
+        };
+        let Some((g, pi, v, vs, arms)) = found else {
             if *hist != Vec3::zeros() {
                 *hist = Vec3::zeros();
             }
             continue;
-        }
-        if p.ellipse[a] || p.ellipse[b] {
-            // ellipses (2D): contact geometry by the certified Newton search,
-            // body 1 = b, body 2 = a, so n points from b to a as below
-            let (ea, eb) = (&shapes[a], &shapes[b]);
-            let Some(ec) = ellipse::contact_fast(eb, ea) else {
-                if *hist != Vec3::zeros() {
-                    *hist = Vec3::zeros();
-                }
-                continue;
-            };
-            contacts += 1;
-            owned_pairs += (a < n_own) as usize;
-            let n = ec.n;
-            let (ra, rb) = (ec.point - p.pos[a], ec.point - p.pos[b]);
-            // Hertz with the local radii of curvature at the contact
-            let (rho_a, rho_b) = (ea.curvature_radius(-n.x, -n.y), eb.curvature_radius(n.x, n.y));
-            let mut pi = nl.pair_inertia[k];
-            pi.r_eff = rho_a * rho_b / (rho_a + rho_b);
-            let g = ContactGeom { n, overlap: ec.overlap, arm_i: ra.norm(), arm_j: rb.norm() };
-            let pm = table.get(p.material[a], p.material[b]);
-            let v = (p.vel[a] + p.omega[a].cross(&ra)) - (p.vel[b] + p.omega[b].cross(&rb));
-            let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, v, hist, s.dt);
-            p.force[a] += c.force;
-            p.force[b] -= c.force;
-            p.torque[a] += ra.cross(&c.force);
-            p.torque[b] -= rb.cross(&c.force);
-            continue;
-        }
+        };
         contacts += 1;
         owned_pairs += (a < n_own) as usize;
-        let dist = dist2.sqrt();
-        let nrm = d * (1.0 / dist);
-        let overlap = rsum - dist;
-        let g = ContactGeom { n: nrm, overlap, arm_i: p.radius[a] - 0.5 * overlap, arm_j: p.radius[b] - 0.5 * overlap };
-        let pi = nl.pair_inertia[k];
         let pm = table.get(p.material[a], p.material[b]);
-        let v = relative_velocity(&g, p.vel[a], p.vel[b], p.omega[a], p.omega[b]);
-        let vs = match s.tang.kinematics {
-            ShearKinematics::ContactPoint => v,
-            ShearKinematics::FullRadii => yade_shear_velocity(
-                nrm, overlap, p.radius[a], p.radius[b], p.vel[a], p.vel[b], p.omega[a], p.omega[b],
-            ),
-        };
         let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, vs, hist, s.dt);
-        let (ta, tb) = torques(&g, c.force);
+        let (ta, tb) = match arms {
+            Some((ra, rb)) => (ra.cross(&c.force), -rb.cross(&c.force)),
+            None => torques(&g, c.force),
+        };
         p.force[a] += c.force;
         p.force[b] -= c.force;
         p.torque[a] += ta;
@@ -176,48 +172,43 @@ fn sweep<L: NormalLaw>(
             };
             let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
             wall_contacts += 1;
-            if p.ellipse[i] {
-                // hit.point is the ellipse's deepest point; the force acts
-                // s.wall_arm_overlap of the overlap back towards the ellipse
+            // the point where the force acts (s.wall_arm_overlap of the overlap
+            // back from the particle's deepest point), the radius of curvature
+            // for R*, the velocities, and an ellipse's lever arm
+            let (g, point, rho, v, vs, arm) = if p.ellipse[i] {
+                // hit.point is the ellipse's deepest point
                 let point = hit.point + hit.n * (s.wall_arm_overlap * hit.overlap);
                 let ri = point - p.pos[i];
                 let rho = shapes[i].curvature_radius(-hit.n.x, -hit.n.y);
-                let pi = match wall.curvature_radius() {
-                    None => PairInertia::wall(rho, p.mass[i]),
-                    Some(rw) => PairInertia::curved_wall(rho, rw, p.mass[i]),
-                };
                 let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: ri.norm(), arm_j: 0.0 };
-                let pm = table.get(p.material[i], wall.material);
                 let v = p.vel[i] + p.omega[i].cross(&ri) - wall.velocity;
-                let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, v, hist, s.dt);
-                p.force[i] += c.force;
-                p.torque[i] += ri.cross(&c.force);
-                let t = point.cross(&c.force);
-                for k in 0..3 {
-                    wall.load[k] -= to_fixed(c.force[k]);
-                    wall.load[3 + k] -= to_fixed(t[k]);
-                }
-                continue;
-            }
-            let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - s.wall_arm_overlap * hit.overlap, arm_j: 0.0 };
+                (g, point, rho, v, v, Some(ri))
+            } else {
+                let g = ContactGeom { n: hit.n, overlap: hit.overlap, arm_i: p.radius[i] - s.wall_arm_overlap * hit.overlap, arm_j: 0.0 };
+                let v = relative_velocity(&g, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros());
+                let vs = match s.tang.kinematics {
+                    ShearKinematics::ContactPoint => v,
+                    ShearKinematics::FullRadii => yade_shear_velocity(
+                        hit.n, hit.overlap, p.radius[i], 0.0, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros(),
+                    ),
+                };
+                // arm r - delta/2 along n
+                (g, p.pos[i] - hit.n * g.arm_i, p.radius[i], v, vs, None)
+            };
             let pi = match wall.curvature_radius() {
-                None => PairInertia::wall(p.radius[i], p.mass[i]),
-                Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
+                None => PairInertia::wall(rho, p.mass[i]),
+                Some(rw) => PairInertia::curved_wall(rho, rw, p.mass[i]),
             };
             let pm = table.get(p.material[i], wall.material);
-            let v = relative_velocity(&g, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros());
-            let vs = match s.tang.kinematics {
-                ShearKinematics::ContactPoint => v,
-                ShearKinematics::FullRadii => yade_shear_velocity(
-                    hit.n, hit.overlap, p.radius[i], 0.0, p.vel[i], wall.velocity, p.omega[i], Vec3::zeros(),
-                ),
-            };
             let c = evaluate(law, s.end, s.tang, pm, pi, &g, v, vs, hist, s.dt);
-            let (ti, _) = torques(&g, c.force);
+            let ti = match arm {
+                Some(ri) => ri.cross(&c.force),
+                None => torques(&g, c.force).0,
+            };
             p.force[i] += c.force;
             p.torque[i] += ti;
-            // the force acts at the same point as on the particle (arm r - delta/2)
-            let t = (p.pos[i] - hit.n * g.arm_i).cross(&c.force);
+            // the force acts on the wall at the same point as on the particle
+            let t = point.cross(&c.force);
             for k in 0..3 {
                 wall.load[k] -= to_fixed(c.force[k]);
                 wall.load[3 + k] -= to_fixed(t[k]);

@@ -152,15 +152,19 @@ impl Simulation {
             p.push_sphere(i, mat.density, pmat);
         }
         p.sort_by_id();
-        // ellipses: 2D, Verlet, one rank
-        if !case.particles.ellipses.is_empty() {
-            let key = "particles.ellipses";
+        // ellipses and clumps (dumbbells) run in 2D, with Verlet, on one rank
+        let serial_2d_verlet = |key: &str, what: &str| {
             if case.simulation.dimension != Dimension::Two || case.simulation.integrator != IntegratorKind::Verlet {
-                return Err(TalusError::Input(format!("{path}: {key}: ellipses need simulation.dimension = \"2\" and the verlet integrator")));
+                return Err(TalusError::Input(format!("{path}: {key}: {what} need simulation.dimension = \"2\" and the verlet integrator")));
             }
             if comm.size() > 1 {
-                return Err(TalusError::Input(format!("{path}: {key}: ellipses run on one rank only (this run has {})", comm.size())));
+                return Err(TalusError::Input(format!("{path}: {key}: {what} run on one rank only (this run has {})", comm.size())));
             }
+            Ok(())
+        };
+        if !case.particles.ellipses.is_empty() {
+            let key = "particles.ellipses";
+            serial_2d_verlet(key, "ellipses")?;
             let in_clump: std::collections::HashSet<u64> = case.particles.clumps.iter().flatten().copied().collect();
             for (k, e) in case.particles.ellipses.iter().enumerate() {
                 let i = p.id.binary_search(&e.id).map_err(|_| {
@@ -308,16 +312,11 @@ impl Simulation {
                 )));
             }
         }
-        // clumps (dumbbells): 2D, Verlet, one rank
+        // clumps (dumbbells)
         let mut clumps = Clumps::default();
         if !case.particles.clumps.is_empty() {
             let key = "particles.clumps";
-            if case.simulation.dimension != Dimension::Two || case.simulation.integrator != IntegratorKind::Verlet {
-                return Err(TalusError::Input(format!("{path}: {key}: clumps (dumbbells) need simulation.dimension = \"2\" and the verlet integrator")));
-            }
-            if comm.size() > 1 {
-                return Err(TalusError::Input(format!("{path}: {key}: clumps run on one rank only (this run has {})", comm.size())));
-            }
+            serial_2d_verlet(key, "clumps (dumbbells)")?;
             let mut seen = std::collections::HashSet::new();
             let mut pairs = Vec::new();
             for (k, &[a, b]) in case.particles.clumps.iter().enumerate() {

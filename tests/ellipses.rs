@@ -5,45 +5,6 @@ mod common;
 use common::*;
 use talus::dim::Vec3;
 
-/// A 2D case: material (E = 1e9, nu 0.3, rho 3900, restitution `e`, friction
-/// `mu`), the given particle list and extra lines, no gravity unless given.
-fn case2d(e: f64, mu: f64, gravity: f64, particles: &str, extra: &str, dt: f64) -> Result<talus::sim::Simulation, String> {
-    let t = format!(
-        r#"
-[simulation]
-dimension = "2"
-timestep = {dt:e}
-gravity = [0.0, {g:e}, 0.0]
-domain = {{ lo = [-0.05, -0.05, -0.001], hi = [0.05, 0.05, 0.001] }}
-
-[contact]
-model = "hertz"
-
-[[material]]
-name = "m"
-youngs_modulus = 1.0e9
-poisson_ratio = 0.3
-density = 3900.0
-restitution = {e}
-friction = {mu}
-
-[particles]
-material = "m"
-{particles}
-
-{extra}
-
-[[phase]]
-name = "run"
-duration = 1.0
-"#,
-        g = -gravity
-    );
-    talus::case::Case::parse(&t, &cases_dir().join("ellipse.toml"))
-        .and_then(talus::sim::Simulation::new)
-        .map_err(|e| e.to_string())
-}
-
 fn run(sim: &mut talus::sim::Simulation, steps: usize) {
     for _ in 0..steps {
         sim.step().unwrap();

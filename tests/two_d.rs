@@ -108,42 +108,16 @@ fn two_d_input_out_of_the_plane_is_refused() {
 /// Two 1 mm discs touching at the origin, joined as a dumbbell, spinning at
 /// `spin` rad/s and moving at 0.1 m/s along x; no gravity, no walls.
 fn dumbbell(spin: f64) -> talus::sim::Simulation {
-    let t = format!(
-        r#"
-[simulation]
-dimension = "2"
-timestep = 1e-6
-gravity = [0.0, 0.0, 0.0]
-domain = {{ lo = [-0.05, -0.05, -0.001], hi = [0.05, 0.05, 0.001] }}
-
-[contact]
-model = "hertz"
-
-[[material]]
-name = "m"
-youngs_modulus = 1.0e9
-poisson_ratio = 0.3
-density = 3900.0
-restitution = 0.5
-friction = 0.3
-
-[particles]
-material = "m"
-list = [
+    let parts = format!(
+        r#"list = [
   {{ id = 1, position = [0.001, 0.0, 0.0], velocity = [0.1, {v}, 0.0], spin = [0.0, 0.0, {spin}], radius = 0.001 }},
   {{ id = 2, position = [-0.001, 0.0, 0.0], velocity = [0.1, {mv}, 0.0], spin = [0.0, 0.0, {spin}], radius = 0.001 }},
 ]
-clumps = [[1, 2]]
-
-[[phase]]
-name = "spin"
-duration = 0.01
-"#,
+clumps = [[1, 2]]"#,
         v = spin * 0.001,
         mv = -spin * 0.001
     );
-    let c = talus::case::Case::parse(&t, &cases_dir().join("dumbbell.toml")).unwrap_or_else(|e| panic!("{e}"));
-    talus::sim::Simulation::new(c).unwrap_or_else(|e| panic!("{e}"))
+    case2d(0.5, 0.3, 0.0, &parts, "", 1e-6).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]
