@@ -6,7 +6,8 @@ use talus::drag::{run, DragCase};
 /// Mean and standard deviation of a case's drag over its beds (each case runs
 /// once per test binary; tests share the results).
 fn drag(id: &str) -> (f64, f64) {
-    static DONE: std::sync::Mutex<Vec<(String, std::sync::Arc<std::sync::OnceLock<(f64, f64)>>)>> = std::sync::Mutex::new(Vec::new());
+    type Result = std::sync::Arc<std::sync::OnceLock<(f64, f64)>>;
+    static DONE: std::sync::Mutex<Vec<(String, Result)>> = std::sync::Mutex::new(Vec::new());
     let cell = {
         let mut d = DONE.lock().unwrap();
         match d.iter().find(|(k, _)| k == id) {
