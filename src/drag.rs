@@ -331,6 +331,8 @@ pub struct BedResult {
     pub series: Vec<(f64, f64)>,
     pub mean_drag: f64,
     pub steps: u64,
+    /// The bed's final `state_hash` (every particle's id, position, velocity, spin).
+    pub state_hash: String,
     /// Snapshots (displacement, per granule: id, x, y, radius (a), minor semi-axis b, angle) at the start, middle and end of the drag.
     pub snapshots: Vec<(f64, Vec<(u64, f64, f64, f64, f64, f64)>)>,
 }
@@ -380,7 +382,7 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let [a, b] = d.average_window;
     let win: Vec<f64> = series.iter().filter(|(s, _)| *s >= a && *s <= b).map(|x| x.1).collect();
     let mean_drag = win.iter().sum::<f64>() / win.len().max(1) as f64;
-    Ok(BedResult { seed, series, mean_drag, steps: sim.state.step, snapshots })
+    Ok(BedResult { seed, series, mean_drag, steps: sim.state.step, state_hash: sim.state_hash(), snapshots })
 }
 
 /// Run a drag case over its beds; writes `summary.json` (`mean_drag_n`,
@@ -437,9 +439,9 @@ pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> 
     }
     f.flush().map_err(io)?;
     let mut b = std::fs::File::create(out.join("beds.csv")).map_err(io)?;
-    writeln!(b, "seed,mean_drag_n,steps").map_err(io)?;
+    writeln!(b, "seed,mean_drag_n,steps,state_hash").map_err(io)?;
     for bed in &beds {
-        writeln!(b, "{},{:.6e},{}", bed.seed, bed.mean_drag, bed.steps).map_err(io)?;
+        writeln!(b, "{},{:.6e},{},{}", bed.seed, bed.mean_drag, bed.steps, bed.state_hash).map_err(io)?;
     }
     let mut s = Map::new();
     s.insert("case".into(), json!(dc.drag.id));
