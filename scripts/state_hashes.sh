@@ -2,11 +2,12 @@
 # The state_hash of every case in cases/ and of every drag bed, one line each:
 # the proof that a refactor did not change the physics (run before and after,
 # then diff). Long cases are cut to a fixed number of steps.
-#   bash scripts/state_hashes.sh [OUT_DIR] > hashes.txt     (QUICK=1: skip the drag beds)
+#   bash scripts/state_hashes.sh [OUT_DIR] > hashes.txt
+# QUICK=1 skips the drag beds; TALUS=path picks the binary (default target/release/talus).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-$(mktemp -d)}
-talus=./target/release/talus
+talus=${TALUS:-./target/release/talus}
 steps_for() {
   case "$1" in
     H1-paper) echo 300 ;;
