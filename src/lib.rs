@@ -3,10 +3,12 @@
 
 pub mod analysis;
 pub mod case;
+pub mod checkpoint;
 pub mod clump;
 pub mod contact;
 pub mod dim;
 pub mod drag;
+pub mod durable;
 pub mod error;
 pub mod forces;
 pub mod generate;
@@ -17,6 +19,7 @@ pub mod parallel;
 pub mod output;
 pub mod particles;
 pub mod run;
+pub mod signals;
 pub mod sim;
 pub mod walls;
 

@@ -72,7 +72,7 @@ fn main() -> ExitCode {
     }
     let result = real_main(cli, comm);
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             // errors are collective (every rank has the same message): rank 0 prints
             // it at once; the others wait a moment before exiting (mpirun ends the job
@@ -89,7 +89,7 @@ fn main() -> ExitCode {
     }
 }
 
-fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
+fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
     match cli.cmd {
         Cmd::Run { case, out, steps, restart, quiet, balance } => {
             let root = comm.is_root();
@@ -103,14 +103,32 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
                 PathBuf::from("out").join(case.file_stem().map(|s| s.to_os_string()).unwrap_or_default())
             });
             let opts = RunOptions { out: out.clone(), max_steps: steps, restart, progress: !quiet };
+            // SIGINT / SIGTERM: finish the step, write the checkpoint and outputs, exit 130 / 143
+            talus::signals::install().map_err(|e| TalusError::io("installing the SIGINT/SIGTERM handlers", e))?;
             let r = run_on(c, &opts, comm)?;
+            if let Some(sig) = r.interrupted {
+                if root {
+                    let st = &r.sim.state;
+                    eprintln!(
+                        "talus: stopped by {} at step {} (t = {:.6e} s); checkpoint and outputs written in {}; continue with: talus run {} --out {} --restart {}",
+                        talus::signals::name(sig),
+                        st.step,
+                        st.time,
+                        out.display(),
+                        case.display(),
+                        out.display(),
+                        out.join("checkpoint.bin").display()
+                    );
+                }
+                return Ok(ExitCode::from(talus::signals::exit_code(sig)));
+            }
             if root {
                 println!("talus: {} finished; outputs in {}", case.display(), out.display());
                 for (k, v) in &r.summary {
                     println!("  {k:<32} {v}");
                 }
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Cmd::Drag { case, out } => {
             let dc = talus::drag::DragCase::load(&case)?;
@@ -120,7 +138,7 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
             for (k, v) in &s {
                 println!("  {k:<24} {v}");
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Cmd::Meshes { dir } => {
             std::fs::create_dir_all(&dir).map_err(|e| TalusError::io(format!("creating {}", dir.display()), e))?;
@@ -130,7 +148,7 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
                 m.write_stl(&p).map_err(|e| TalusError::io(format!("writing {}", p.display()), e))?;
                 println!("wrote {}", p.display());
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Cmd::Cloud { case, out } => {
             let c = Case::load(&case)?;
@@ -138,7 +156,7 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<(), TalusError> {
             let inits = sim.state.p.to_inits();
             talus::generate::write_csv(&out, &inits).map_err(|e| TalusError::io(format!("writing {}", out.display()), e))?;
             println!("wrote {} particles to {}", inits.len(), out.display());
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
     }
 }

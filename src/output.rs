@@ -1,10 +1,13 @@
-//! Run outputs: the probe time series (CSV), HDF5 snapshots with an XDMF index
-//! that ParaView opens, checkpoints (bincode of the whole state), summary.json.
+//! Run outputs: the probe time series (CSV) and HDF5 snapshots with an XDMF
+//! index that ParaView opens. Checkpoints are in [`crate::checkpoint`].
+//!
+//! Both survive a kill and continue on a restart into the same folder: probe
+//! rows are flushed at every output interval, and a restart keeps the rows and
+//! snapshots up to the checkpoint's step and appends after them.
 
+use crate::durable::{write_atomic, Series};
 use crate::error::TalusError;
-use crate::integrate::GearState;
-use crate::neighbor::{History, NeighborList};
-use crate::particles::{Particles, Record};
+use crate::particles::Record;
 use crate::sim::{Simulation, State};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -12,13 +15,15 @@ use std::path::{Path, PathBuf};
 /// The probe CSV writer. Every rank calls `create` and `write` (the values
 /// are sums over ranks); rank 0 writes the file.
 pub struct Probes {
-    out: Option<std::io::BufWriter<std::fs::File>>,
+    out: Option<Series>,
     mass_below_z: Option<f64>,
     track: Vec<u64>,
 }
 
 impl Probes {
-    pub fn create(dir: &Path, sim: &Simulation) -> Result<Probes, TalusError> {
+    /// Open `probes.csv` in `dir`: anew, or, with `resume_step` (a restart),
+    /// keeping the rows up to that step and appending after them.
+    pub fn create(dir: &Path, sim: &Simulation, resume_step: Option<u64>) -> Result<Probes, TalusError> {
         let o = &sim.case.output;
         let found = sim.tracked(&o.track);
         for (&id, r) in o.track.iter().zip(&found) {
@@ -30,9 +35,6 @@ impl Probes {
         if !sim.par.comm.is_root() {
             return Ok(Probes { out: None, mass_below_z: o.mass_below_z, track });
         }
-        let path = dir.join("probes.csv");
-        let f = std::fs::File::create(&path).map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e))?;
-        let mut out = std::io::BufWriter::new(f);
         let mut h = String::from("time_s,step,phase,kinetic_energy_j,contacts");
         for w in &sim.state.walls {
             for c in ["x", "y", "z"] {
@@ -53,7 +55,7 @@ impl Probes {
                 h.push_str(&format!(",p{id}_{q}"));
             }
         }
-        writeln!(out, "{h}").map_err(|e| TalusError::io("probes.csv", e))?;
+        let out = Series::open(&dir.join("probes.csv"), &h, 1, resume_step)?;
         Ok(Probes { out: Some(out), mass_below_z: o.mass_below_z, track })
     }
 
@@ -84,13 +86,14 @@ impl Probes {
                 }
             }
         }
-        writeln!(out, "{line}").map_err(|e| TalusError::io("probes.csv", e))?;
+        out.row(&line)?;
+        out.flush()?;
         Ok(mb)
     }
 
     pub fn flush(&mut self) -> Result<(), TalusError> {
         match self.out.as_mut() {
-            Some(o) => o.flush().map_err(|e| TalusError::io("probes.csv", e)),
+            Some(o) => o.flush(),
             None => Ok(()),
         }
     }
@@ -105,11 +108,45 @@ pub struct Snapshots {
 }
 
 impl Snapshots {
-    pub fn create(dir: &Path) -> Result<Snapshots, TalusError> {
+    /// Open `snapshots.h5` in `dir`: anew, or, with `resume_step` (a restart),
+    /// the existing file with the snapshots after that step removed, so new
+    /// ones are appended after the ones kept (the XDMF index is rewritten to
+    /// match). A file HDF5 cannot open (a kill in the middle of a write) is
+    /// kept aside as `snapshots.h5.damaged` with a warning, and a new one begun.
+    pub fn create(dir: &Path, resume_step: Option<u64>, dt: f64) -> Result<Snapshots, TalusError> {
         let h5 = dir.join("snapshots.h5");
+        let xdmf = dir.join("snapshots.xdmf");
+        if let (Some(step), true) = (resume_step, h5.exists()) {
+            match hdf5_metno::File::open_rw(&h5) {
+                Ok(file) => {
+                    let err = |e: hdf5_metno::Error| TalusError::Run(format!("continuing {}: {e}", h5.display()));
+                    let mut entries = Vec::new();
+                    for name in file.member_names().map_err(err)? {
+                        let Some(s) = name.strip_prefix("step_").and_then(|s| s.parse::<u64>().ok()) else { continue };
+                        if s > step {
+                            file.unlink(&name).map_err(err)?;
+                            continue;
+                        }
+                        let g = file.group(&name).map_err(err)?;
+                        let t = g.attr("time_s").and_then(|a| a.read_scalar::<f64>()).unwrap_or(s as f64 * dt);
+                        let n = g.dataset("radius").map_err(err)?.shape().first().copied().unwrap_or(0);
+                        entries.push((name, t, n));
+                    }
+                    file.flush().map_err(err)?;
+                    let snaps = Snapshots { h5, xdmf, file, entries };
+                    snaps.write_xdmf()?;
+                    return Ok(snaps);
+                }
+                Err(e) => {
+                    let aside = dir.join("snapshots.h5.damaged");
+                    eprintln!("talus: warning: {} cannot be continued ({e}); kept as {}, new snapshots begin", h5.display(), aside.display());
+                    std::fs::rename(&h5, &aside).map_err(|e| TalusError::io(format!("cannot rename {}", h5.display()), e))?;
+                }
+            }
+        }
         let file = hdf5_metno::File::create(&h5)
             .map_err(|e| TalusError::Run(format!("cannot create HDF5 file {}: {e}", h5.display())))?;
-        Ok(Snapshots { h5, xdmf: dir.join("snapshots.xdmf"), file, entries: Vec::new() })
+        Ok(Snapshots { h5, xdmf, file, entries: Vec::new() })
     }
 
     /// Write every particle (gathered from all ranks, in id order) as one snapshot.
@@ -117,6 +154,7 @@ impl Snapshots {
         let name = format!("step_{:09}", st.step);
         let err = |e: hdf5_metno::Error| TalusError::Run(format!("writing {}: {e}", self.h5.display()));
         let g = self.file.create_group(&name).map_err(err)?;
+        g.new_attr::<f64>().create("time_s").map_err(err)?.write_scalar(&st.time).map_err(err)?;
         let n = recs.len();
         let vec3 = |f: &dyn Fn(&Record) -> crate::dim::Vec3| -> Vec<f64> {
             recs.iter().flat_map(|r| { let x = f(r); [x.x, x.y, x.z] }).collect()
@@ -130,10 +168,11 @@ impl Snapshots {
         g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&id).map_err(err)?;
         self.file.flush().map_err(err)?;
         self.entries.push((name, st.time, n));
-        self.write_xdmf().map_err(|e| TalusError::io(format!("writing {}", self.xdmf.display()), e))
+        self.write_xdmf()
     }
 
-    fn write_xdmf(&self) -> std::io::Result<()> {
+    /// The XDMF index of every snapshot in the file, replaced atomically.
+    fn write_xdmf(&self) -> Result<(), TalusError> {
         let h5 = self.h5.file_name().unwrap().to_string_lossy().to_string();
         let mut s = String::from(
             "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n<Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
@@ -152,90 +191,6 @@ impl Snapshots {
             s.push_str("</Grid>\n");
         }
         s.push_str("</Grid>\n</Domain>\n</Xdmf>\n");
-        std::fs::write(&self.xdmf, s)
+        write_atomic(&self.xdmf, |w| w.write_all(s.as_bytes()))
     }
-}
-
-/// A checkpoint: the case text's hash and the whole state of all ranks, as
-/// one serial state (every particle in id order, the contact history keyed by
-/// ids), so that a run restarts from it on any number of ranks.
-#[derive(serde::Serialize, serde::Deserialize)]
-pub struct Checkpoint {
-    pub case_hash: u64,
-    /// Ranks of the run that wrote it (for information).
-    pub ranks: usize,
-    pub state: State,
-    pub history: History,
-}
-
-/// Hash of the case text, without its `[parallel]` section: how the work is
-/// split does not change results, so a checkpoint restarts under any.
-pub fn case_hash(sim: &Simulation) -> u64 {
-    let mut case = sim.case.clone();
-    case.parallel = Default::default();
-    let text = toml::to_string(&case).unwrap_or_default();
-    text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
-}
-
-/// All ranks write one checkpoint together (a collective: gathered, rank 0 writes).
-pub fn write_checkpoint(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
-    let st = &sim.state;
-    let (recs, rows) = sim.par.gather_all(&st.p, &st.gear);
-    let history = sim.par.gather_history(st.nl.take_history(&st.p));
-    let result = if sim.par.comm.is_root() {
-        let mut gear = GearState { initialised: st.gear.initialised, ..Default::default() };
-        gear.set_all(&rows);
-        let state = State {
-            p: Particles::from_records(&recs),
-            walls: st.walls.clone(),
-            nl: NeighborList { skin: st.nl.skin, builds: st.nl.builds, ..Default::default() },
-            gear,
-            time: st.time,
-            step: st.step,
-            phase: st.phase,
-            phase_start: st.phase_start,
-            settle_end: st.settle_end,
-            pe0: st.pe0,
-            forces_ready: st.forces_ready,
-            contacts: st.contacts,
-            clumps: st.clumps.clone(),
-            analysis: st.analysis.clone(),
-        };
-        let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.par.size(), state, history };
-        std::fs::File::create(path)
-            .map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e))
-            .and_then(|f| {
-                bincode::serialize_into(std::io::BufWriter::new(f), &ck)
-                    .map_err(|e| TalusError::Run(format!("writing checkpoint {}: {e}", path.display())))
-            })
-    } else {
-        Ok(())
-    };
-    sim.par.collective(result)
-}
-
-/// Replace the simulation's state by a checkpoint's (every rank reads the file
-/// and keeps its own particles); refuse one written for another case.
-pub fn read_checkpoint(sim: &mut Simulation, path: &Path) -> Result<(), TalusError> {
-    let f = std::fs::File::open(path).map_err(|e| TalusError::io(format!("cannot open checkpoint {}", path.display()), e))?;
-    let ck: Checkpoint = bincode::deserialize_from(std::io::BufReader::new(f))
-        .map_err(|e| TalusError::Input(format!("{}: not a talus checkpoint: {e}", path.display())))?;
-    if ck.case_hash != case_hash(sim) {
-        return Err(TalusError::Input(format!(
-            "{}: the checkpoint was written for a different case than {}",
-            path.display(),
-            sim.case.path.display()
-        )));
-    }
-    if ck.state.p.len() as u64 != sim.particle_count() {
-        return Err(TalusError::Input(format!("{}: particle count differs from the case", path.display())));
-    }
-    let mut st = ck.state;
-    let mut hist = ck.history;
-    sim.par.refit_all(&st.p.pos);
-    sim.par.take_own(&mut st.p, &mut st.gear, &mut hist);
-    let hist = sim.par.migrate(&mut st.p, &mut st.gear, hist);
-    st.nl.build_with(&st.p, &st.walls, &hist);
-    sim.state = st;
-    Ok(())
 }

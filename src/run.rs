@@ -2,8 +2,10 @@
 //! the progress bar and the summary.
 
 use crate::case::Case;
+use crate::checkpoint::{read as read_checkpoint, write as write_checkpoint};
+use crate::durable::{write_atomic, Series};
 use crate::error::TalusError;
-use crate::output::{read_checkpoint, write_checkpoint, Probes, Snapshots};
+use crate::output::{Probes, Snapshots};
 use crate::parallel::comm::Comm;
 use crate::sim::Simulation;
 use std::io::Write;
@@ -26,6 +28,9 @@ pub struct RunOptions {
 pub struct RunResult {
     pub summary: Map<String, Value>,
     pub sim: Simulation,
+    /// The signal (SIGINT, SIGTERM) that stopped the run early, after its
+    /// checkpoint and outputs were written.
+    pub interrupted: Option<i32>,
 }
 
 fn crossed(t_prev: f64, t: f64, interval: f64, dt: f64) -> bool {
@@ -44,27 +49,32 @@ pub fn run_on(case: Case, opts: &RunOptions, comm: Rc<Comm>) -> Result<RunResult
         read_checkpoint(&mut sim, r)?;
     }
     let summary = run_sim(&mut sim, opts)?;
-    Ok(RunResult { summary, sim })
+    let interrupted = sim.par.stop;
+    Ok(RunResult { summary, sim, interrupted })
 }
 
 /// Run an already built simulation; writes outputs and summary.json into `opts.out`
-/// and returns the summary.
+/// and returns the summary. A simulation restarted from a checkpoint (step > 0)
+/// continues the series already in `opts.out`: rows and snapshots after the
+/// checkpoint's step are dropped, new ones appended.
 pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
     let out = &opts.out;
     let root = sim.par.comm.is_root();
-    sim.par.collective(
-        std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e)),
-    )?;
-    let mut probes = sim.par.collective(Probes::create(out, sim))?;
+    let dt = sim.set.dt;
+    let prepared = std::fs::create_dir_all(out)
+        .map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))
+        .and_then(|()| if root { remove_stale_failure(out) } else { Ok(()) });
+    sim.par.collective(prepared)?;
+    let resume = (sim.state.step > 0).then_some(sim.state.step);
+    let mut probes = sim.par.collective(Probes::create(out, sim, resume))?;
     let snaps = match (sim.case.output.snapshot_interval, root) {
-        (Some(_), true) => Some(Snapshots::create(out)),
+        (Some(_), true) => Some(Snapshots::create(out, resume, dt)),
         _ => None,
     }
     .transpose();
     let mut snaps = sim.par.collective(snaps)?;
     let want_snaps = sim.case.output.snapshot_interval.is_some();
-    let mut ranks = RankLog::create(out, sim)?;
-    let dt = sim.set.dt;
+    let mut ranks = RankLog::create(out, sim, resume)?;
     let interval = sim.case.output.interval;
     sim.prepare()?;
     if sim.state.step == 0 {
@@ -140,6 +150,11 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
                 write_checkpoint(sim, &out.join("checkpoint.bin"))?;
             }
         }
+        if sim.par.stop.is_some() {
+            // a signal: every rank agreed on this step; the checkpoint and the
+            // outputs are written below as at the end of a run
+            break;
+        }
         if let Some(b) = &bar {
             if steps % 200 == 0 {
                 let rate = n * steps as f64 / start.elapsed().as_secs_f64();
@@ -184,19 +199,32 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         json!(if wall > 0.0 { n * steps as f64 / wall } else { 0.0 }),
     );
     summary.insert("state_hash".into(), json!(sim.state_hash()));
+    if let Some(sig) = sim.par.stop {
+        summary.insert("stopped_by_signal".into(), json!(crate::signals::name(sig)));
+    }
     let tracked = sim.tracked(&sim.state.analysis.ids());
     for (k, v) in sim.state.analysis.figures(&tracked) {
         summary.insert(k, v);
     }
     let path = out.join("summary.json");
     let written = if root {
-        std::fs::write(&path, serde_json::to_string_pretty(&summary).unwrap() + "\n")
-            .map_err(|e| TalusError::io(format!("writing {}", path.display()), e))
+        let text = serde_json::to_string_pretty(&summary).unwrap() + "\n";
+        write_atomic(&path, |w| w.write_all(text.as_bytes()))
     } else {
         Ok(())
     };
     sim.par.collective(written)?;
     Ok(summary)
+}
+
+/// A failure checkpoint left by an earlier run in this folder would be taken
+/// for this run's: removed when a run starts.
+fn remove_stale_failure(out: &Path) -> Result<(), TalusError> {
+    let f = out.join("failure_checkpoint.bin");
+    match std::fs::remove_file(&f) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(TalusError::io(format!("cannot remove {}", f.display()), e)),
+        _ => Ok(()),
+    }
 }
 
 /// Gather every particle and let rank 0 write a snapshot (a collective).
@@ -214,24 +242,16 @@ fn write_snapshot(sim: &Simulation, snaps: &mut Option<Snapshots>) -> Result<(),
 /// over the interval, and the imbalance (max over mean) of compute time and of
 /// work (particles + contacts). Rank 0 writes; the means per phase go into the summary.
 struct RankLog {
-    out: Option<std::io::BufWriter<std::fs::File>>,
+    out: Option<Series>,
     /// Per phase: (sum of time imbalance, sum of work imbalance, rows).
     per_phase: Vec<(String, f64, f64, u64)>,
 }
 
 impl RankLog {
-    fn create(dir: &Path, sim: &Simulation) -> Result<RankLog, TalusError> {
-        let out = if sim.par.comm.is_root() {
-            let path = dir.join("ranks.csv");
-            let f = std::fs::File::create(&path).map_err(|e| TalusError::io(format!("cannot create {}", path.display()), e));
-            let mut w = sim.par.collective(f).map(std::io::BufWriter::new)?;
-            writeln!(w, "time_s,step,phase,rank,owned,ghosts,contacts,compute_s,comm_s,imbalance_time,imbalance_work")
-                .map_err(|e| TalusError::io("ranks.csv", e))?;
-            Some(w)
-        } else {
-            sim.par.collective(Ok(()))?;
-            None
-        };
+    fn create(dir: &Path, sim: &Simulation, resume: Option<u64>) -> Result<RankLog, TalusError> {
+        const HEADER: &str = "time_s,step,phase,rank,owned,ghosts,contacts,compute_s,comm_s,imbalance_time,imbalance_work";
+        let out = if sim.par.comm.is_root() { Some(Series::open(&dir.join("ranks.csv"), HEADER, 1, resume)) } else { None };
+        let out = sim.par.collective(out.transpose())?;
         Ok(RankLog { out, per_phase: Vec::new() })
     }
 
@@ -255,20 +275,19 @@ impl RankLog {
         }
         if let Some(w) = self.out.as_mut() {
             for (r, x) in c.iter().enumerate() {
-                writeln!(
-                    w,
+                w.row(&format!(
                     "{:.9e},{},{phase},{r},{},{},{},{:.6e},{:.6e},{it:.5},{iw:.5}",
                     sim.state.time, sim.state.step, x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
-                )
-                .map_err(|e| TalusError::io("ranks.csv", e))?;
+                ))?;
             }
+            w.flush()?;
         }
         Ok(())
     }
 
     fn flush(&mut self) -> Result<(), TalusError> {
         match self.out.as_mut() {
-            Some(w) => w.flush().map_err(|e| TalusError::io("ranks.csv", e)),
+            Some(w) => w.flush(),
             None => Ok(()),
         }
     }

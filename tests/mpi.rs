@@ -5,20 +5,8 @@
 
 mod common;
 use common::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-/// Write an edited copy of a case (and the hopper meshes) into `dir`.
-fn write_case(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
-    let m = dir.join("meshes");
-    std::fs::create_dir_all(&m).unwrap();
-    for f in ["hopper.stl", "box.stl"] {
-        std::fs::copy(cases_dir().join("meshes").join(f), m.join(f)).unwrap();
-    }
-    let path = dir.join(name);
-    std::fs::write(&path, case_text(name, edits)).unwrap();
-    path
-}
 
 /// Run talus on P ranks (P = 0: without mpirun). Returns (success, stdout + stderr, summary).
 fn talus(p: usize, case: &Path, out: &Path, extra: &[&str]) -> (bool, String, Option<serde_json::Value>) {

@@ -80,6 +80,8 @@ pub struct Parallel {
     /// Seconds in: migration + ghosts, list builds, ghost refresh, the per-step
     /// agreement, the wall-load sum (reported with TALUS_PROFILE=1).
     pub prof: [f64; 5],
+    /// The signal that asked every rank to stop, agreed at the same step.
+    pub stop: Option<i32>,
 }
 
 fn bin<T: Serialize>(x: &T) -> Vec<u8> {
@@ -115,6 +117,7 @@ impl Parallel {
             rebalance_pending: false,
             rebalances: 0,
             prof: [0.0; 5],
+            stop: None,
         }
     }
 
@@ -415,13 +418,20 @@ impl Parallel {
 
     /// One collective per step: whether any rank needs a list rebuild, and
     /// whether any rank has failed (then every rank gets every rank's message).
+    /// A stop asked for by a signal on any rank (see `crate::signals`) is
+    /// agreed on in the same collective and kept in `stop`.
     pub fn agree(&mut self, need: bool, error: Option<String>) -> (bool, Option<String>) {
+        let signal = crate::signals::requested();
         if self.size() == 1 {
+            self.stop = self.stop.or(signal);
             return (need, error);
         }
         let t = Instant::now();
-        let mut v = [need as u8 as f64, error.is_some() as u8 as f64];
+        let mut v = [need as u8 as f64, error.is_some() as u8 as f64, signal.unwrap_or(0) as f64];
         self.comm.max_f64(&mut v);
+        if v[2] > 0.0 && self.stop.is_none() {
+            self.stop = Some(v[2] as i32);
+        }
         let err = if v[1] > 0.0 {
             let me = self.rank();
             let p = self.size();

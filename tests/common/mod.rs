@@ -20,6 +20,18 @@ pub fn case_text(name: &str, edits: &[(&str, &str)]) -> String {
     t
 }
 
+/// Write an edited copy of a case (and the hopper meshes) into `dir`.
+pub fn write_case(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let m = dir.join("meshes");
+    std::fs::create_dir_all(&m).unwrap();
+    for f in ["hopper.stl", "box.stl"] {
+        std::fs::copy(cases_dir().join("meshes").join(f), m.join(f)).unwrap();
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, case_text(name, edits)).unwrap();
+    path
+}
+
 pub fn parse(name: &str, text: &str) -> Case {
     Case::parse(text, &cases_dir().join(name)).unwrap_or_else(|e| panic!("{e}"))
 }

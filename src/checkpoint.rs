@@ -1,0 +1,246 @@
+//! Checkpoints: the whole state of all ranks as one serial state (every
+//! particle in id order, Gear rows, the contact history keyed by ids), so that
+//! a run restarts from it on any number of ranks and replays bit for bit.
+//!
+//! File format (little endian):
+//!
+//! | bytes | what |
+//! |---|---|
+//! | 8 | magic `TALUSCKP` |
+//! | 4 | format version ([`FORMAT_VERSION`]) |
+//! | 8 | payload length L |
+//! | 4 | CRC-32 (IEEE) of the payload |
+//! | L | bincode (fixed-width integers) of [`Checkpoint`] |
+//!
+//! A checkpoint is written to `NAME.partial`, synced and renamed over `NAME`
+//! ([`crate::durable::write_atomic`]), so a kill during the write leaves the
+//! previous checkpoint. Reading checks magic, version, the length against the
+//! file's size and the checksum before decoding, and decodes with the payload
+//! length as the allocation limit: a truncated, corrupt or foreign file is
+//! refused with its name, never an allocation abort or a silent wrong state.
+
+use crate::durable::write_atomic;
+use crate::error::TalusError;
+use crate::integrate::GearState;
+use crate::neighbor::{History, NeighborList};
+use crate::particles::Particles;
+use crate::sim::{Simulation, State};
+use bincode::Options;
+use std::io::Write;
+use std::path::Path;
+
+const MAGIC: &[u8; 8] = b"TALUSCKP";
+/// Version of the checkpoint layout; bump it when `State` changes shape.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER: usize = 8 + 4 + 8 + 4;
+
+/// What a checkpoint holds: the case text's hash and the whole state.
+#[derive(serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    pub case_hash: u64,
+    /// Ranks of the run that wrote it (for information).
+    pub ranks: usize,
+    pub state: State,
+    pub history: History,
+}
+
+fn codec() -> impl Options {
+    bincode::DefaultOptions::new().with_fixint_encoding().reject_trailing_bytes()
+}
+
+/// Hash of the case text, without its `[parallel]` section: how the work is
+/// split does not change results, so a checkpoint restarts under any.
+pub fn case_hash(sim: &Simulation) -> u64 {
+    let mut case = sim.case.clone();
+    case.parallel = Default::default();
+    let text = toml::to_string(&case).unwrap_or_default();
+    text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+/// Encode a checkpoint as the bytes of a checkpoint file.
+pub fn encode(ck: &Checkpoint) -> Result<Vec<u8>, TalusError> {
+    let payload = codec().serialize(ck).map_err(|e| TalusError::Run(format!("encoding a checkpoint: {e}")))?;
+    let mut out = Vec::with_capacity(HEADER + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&crc32fast::hash(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    Ok(out)
+}
+
+/// Decode the bytes of a checkpoint file; `path` names it in errors.
+pub fn decode(bytes: &[u8], path: &Path) -> Result<Checkpoint, TalusError> {
+    let bad = |why: String| TalusError::Input(format!("{}: {why}", path.display()));
+    if bytes.len() < HEADER || &bytes[..8] != MAGIC {
+        return Err(bad(format!(
+            "not a talus checkpoint ({} bytes, no `TALUSCKP` header)",
+            bytes.len()
+        )));
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+    if version != FORMAT_VERSION {
+        return Err(bad(format!(
+            "checkpoint format version {version}; this talus reads version {FORMAT_VERSION}"
+        )));
+    }
+    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap());
+    let have = (bytes.len() - HEADER) as u64;
+    if len != have {
+        return Err(bad(format!(
+            "truncated or damaged checkpoint: its header announces {len} bytes of data, the file holds {have}"
+        )));
+    }
+    let crc = u32::from_le_bytes(bytes[20..24].try_into().unwrap());
+    let payload = &bytes[HEADER..];
+    let actual = crc32fast::hash(payload);
+    if crc != actual {
+        return Err(bad(format!(
+            "corrupt checkpoint: checksum {actual:08x} of its data differs from the stored {crc:08x}"
+        )));
+    }
+    codec()
+        .with_limit(len)
+        .deserialize(payload)
+        .map_err(|e| bad(format!("checkpoint data does not decode ({e}); was it written by another version of talus?")))
+}
+
+/// Test hook: `TALUS_TEST_CHECKPOINT_PAUSE_MS` makes a checkpoint write pause
+/// halfway through its temporary file, so a test can kill the run mid-write.
+fn pause_for_tests(w: &mut impl Write) -> std::io::Result<()> {
+    if let Some(ms) = std::env::var("TALUS_TEST_CHECKPOINT_PAUSE_MS").ok().and_then(|v| v.parse::<u64>().ok()) {
+        w.flush()?;
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+    }
+    Ok(())
+}
+
+/// All ranks write one checkpoint together (a collective: gathered, rank 0 writes).
+pub fn write(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
+    let st = &sim.state;
+    let (recs, rows) = sim.par.gather_all(&st.p, &st.gear);
+    let history = sim.par.gather_history(st.nl.take_history(&st.p));
+    let result = if sim.par.comm.is_root() {
+        let mut gear = GearState { initialised: st.gear.initialised, ..Default::default() };
+        gear.set_all(&rows);
+        let state = State {
+            p: Particles::from_records(&recs),
+            walls: st.walls.clone(),
+            nl: NeighborList { skin: st.nl.skin, builds: st.nl.builds, ..Default::default() },
+            gear,
+            time: st.time,
+            step: st.step,
+            phase: st.phase,
+            phase_start: st.phase_start,
+            settle_end: st.settle_end,
+            pe0: st.pe0,
+            forces_ready: st.forces_ready,
+            contacts: st.contacts,
+            clumps: st.clumps.clone(),
+            analysis: st.analysis.clone(),
+        };
+        let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.par.size(), state, history };
+        encode(&ck).and_then(|bytes| {
+            write_atomic(path, |w| {
+                let half = bytes.len() / 2;
+                w.write_all(&bytes[..half])?;
+                pause_for_tests(w)?;
+                w.write_all(&bytes[half..])
+            })
+        })
+    } else {
+        Ok(())
+    };
+    sim.par.collective(result)
+}
+
+/// Read and check a checkpoint file.
+pub fn load(path: &Path) -> Result<Checkpoint, TalusError> {
+    let bytes = std::fs::read(path).map_err(|e| TalusError::io(format!("cannot read checkpoint {}", path.display()), e))?;
+    decode(&bytes, path)
+}
+
+/// Replace the simulation's state by a checkpoint's (every rank reads the file
+/// and keeps its own particles); refuse one written for another case.
+pub fn read(sim: &mut Simulation, path: &Path) -> Result<(), TalusError> {
+    let ck = load(path)?;
+    if ck.case_hash != case_hash(sim) {
+        return Err(TalusError::Input(format!(
+            "{}: the checkpoint was written for a different case than {}",
+            path.display(),
+            sim.case.path.display()
+        )));
+    }
+    if ck.state.p.len() as u64 != sim.particle_count() {
+        return Err(TalusError::Input(format!("{}: particle count differs from the case", path.display())));
+    }
+    let mut st = ck.state;
+    let mut hist = ck.history;
+    sim.par.refit_all(&st.p.pos);
+    sim.par.take_own(&mut st.p, &mut st.gear, &mut hist);
+    let hist = sim.par.migrate(&mut st.p, &mut st.gear, hist);
+    st.nl.build_with(&st.p, &st.walls, &hist);
+    sim.state = st;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Vec<u8> {
+        let case = crate::case::Case::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/SC-pair.toml")).unwrap();
+        let sim = Simulation::new(case).unwrap();
+        let ck = Checkpoint { case_hash: case_hash(&sim), ranks: 1, state: sim.state.clone(), history: History::default() };
+        encode(&ck).unwrap()
+    }
+
+    fn refused(bytes: &[u8]) -> String {
+        decode(bytes, Path::new("x/checkpoint.bin")).err().expect("must be refused").to_string()
+    }
+
+    #[test]
+    fn a_checkpoint_round_trips() {
+        let b = sample();
+        let ck = decode(&b, Path::new("c")).unwrap();
+        assert_eq!(encode(&ck).unwrap(), b);
+    }
+
+    #[test]
+    fn every_flipped_byte_is_refused_with_the_file_name() {
+        let b = sample();
+        // every byte of the header and a spread of payload bytes
+        for i in (0..HEADER).chain((HEADER..b.len()).step_by(7)) {
+            let mut c = b.clone();
+            c[i] ^= 0x10;
+            let e = refused(&c);
+            assert!(e.starts_with("x/checkpoint.bin: "), "byte {i}: {e}");
+        }
+    }
+
+    #[test]
+    fn truncated_and_foreign_files_are_refused() {
+        let b = sample();
+        for n in [0, 5, HEADER, HEADER + 1, b.len() - 1] {
+            assert!(refused(&b[..n]).contains("x/checkpoint.bin"), "{n} bytes accepted");
+        }
+        let e = refused(b"id,x,y,z,radius\n1,0,0,0,1\n");
+        assert!(e.contains("not a talus checkpoint"), "{e}");
+    }
+
+    #[test]
+    fn a_huge_length_field_is_refused_before_any_allocation() {
+        let mut b = sample();
+        b[12..20].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        let e = refused(&b);
+        assert!(e.contains("announces 1099511627776 bytes"), "{e}");
+        // a consistent header and checksum over a payload whose inner length prefix is huge
+        let mut b = sample();
+        let pl = HEADER + 8; // case_hash, then `ranks` (u64): corrupt the next length prefix region
+        b[pl + 8..pl + 16].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        let crc = crc32fast::hash(&b[HEADER..]);
+        b[20..24].copy_from_slice(&crc.to_le_bytes());
+        let e = refused(&b);
+        assert!(e.contains("does not decode"), "{e}");
+    }
+}
