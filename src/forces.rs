@@ -10,7 +10,7 @@ use crate::contact::{
     ShearKinematics, TangentialOptions,
 };
 use crate::dim::Vec3;
-use crate::parallel::comm::{from_fixed, to_fixed};
+use crate::fixed::{from_fixed, to_fixed};
 use crate::material::PairTable;
 use crate::neighbor::NeighborList;
 use crate::particles::Particles;

@@ -10,6 +10,7 @@ pub mod dim;
 pub mod drag;
 pub mod durable;
 pub mod error;
+pub mod fixed;
 pub mod forces;
 pub mod generate;
 pub mod integrate;

@@ -5,7 +5,7 @@
 //! with MPI, owned particles come first and ghosts after.
 
 use crate::dim::Vec3;
-use crate::parallel::comm::{from_fixed, to_fixed};
+use crate::fixed::{from_fixed, to_fixed};
 use serde::{Deserialize, Serialize};
 
 /// Spheres (3D) or discs (2D), one entry per particle in each array.
@@ -228,7 +228,7 @@ impl Particles {
     }
 
     /// Kinetic energy of the owned particles, translational plus rotational,
-    /// as an exact fixed-point sum (see `parallel::comm::to_fixed`).
+    /// as an exact fixed-point sum (see `crate::fixed`).
     pub fn kinetic_energy_fixed(&self) -> i128 {
         (0..self.owned())
             .map(|i| {

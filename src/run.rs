@@ -165,10 +165,10 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
     }
     let wall = start.elapsed().as_secs_f64();
     if std::env::var_os("TALUS_PROFILE").is_some() {
-        let p = sim.par.prof;
+        let t = sim.par.timers;
         eprintln!(
-            "talus profile rank {}: migrate+ghosts {:.3} s, list builds {:.3} s, ghost refresh {:.3} s, agree {:.3} s, wall sums {:.3} s, compute {:.3} s, of {wall:.3} s",
-            sim.par.rank(), p[0], p[1], p[2], p[3], p[4], sim.par.compute_s
+            "talus profile rank {}: migrate+ghosts {:.3} s, list builds {:.3} s, ghost refresh {:.3} s, agree {:.3} s, wall sums {:.3} s, compute since the last output row {:.3} s, of {wall:.3} s",
+            sim.par.rank(), t.migrate, t.list_build, t.ghost_refresh, t.agree, t.wall_sums, t.compute_s
         );
     }
     if let Some(b) = bar {

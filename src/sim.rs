@@ -22,7 +22,8 @@ use crate::generate;
 use crate::integrate::{self, GearState, IntegratorKind};
 use crate::material::{Mixing, PairTable};
 use crate::neighbor::{Domain, History, NeighborList};
-use crate::parallel::comm::{from_fixed, to_fixed, Comm};
+use crate::fixed::{from_fixed, to_fixed};
+use crate::parallel::comm::Comm;
 use crate::parallel::decomp::{choose_grid, Decomposition};
 use crate::parallel::{BalanceSettings, Parallel};
 use crate::particles::{Particles, Record};
@@ -388,26 +389,25 @@ impl Simulation {
             Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
             Err(e) => (true, Some(e.to_string())),
         };
-        let ta = Instant::now();
         let (need, err) = self.par.agree(need || self.par.rebalance_pending, err);
-        self.par.prof[3] += ta.elapsed().as_secs_f64();
         if let Some(e) = err {
             return Err(TalusError::Run(e));
         }
         let t = Instant::now();
         if need {
-            let t1 = Instant::now();
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
-            self.par.prof[0] += t1.elapsed().as_secs_f64();
-            self.par.comm_s += t.elapsed().as_secs_f64();
+            let migrated = t.elapsed().as_secs_f64();
+            self.par.timers.migrate += migrated;
+            self.par.timers.comm_s += migrated;
             let t2 = Instant::now();
             st.nl.build_with(&st.p, &st.walls, &h);
-            self.par.prof[1] += t2.elapsed().as_secs_f64();
+            self.par.timers.list_build += t2.elapsed().as_secs_f64();
             self.par.rebalance_pending = false;
         } else {
             self.par.update_ghosts(&mut st.p);
-            self.par.prof[2] += t.elapsed().as_secs_f64();
-            self.par.comm_s += t.elapsed().as_secs_f64();
+            let refreshed = t.elapsed().as_secs_f64();
+            self.par.timers.ghost_refresh += refreshed;
+            self.par.timers.comm_s += refreshed;
         }
         Ok(())
     }
@@ -421,18 +421,16 @@ impl Simulation {
 
     /// Sum the walls' loads over ranks (exact, the same for any P).
     fn reduce_walls(&mut self) {
-        if self.par.size() == 1 {
-            return;
-        }
         let t = Instant::now();
         let mut v: Vec<i128> = self.state.walls.iter().flat_map(|w| w.load).collect();
         self.par.comm.sum_exact(&mut v);
-        self.par.prof[4] += t.elapsed().as_secs_f64();
         for (w, c) in self.state.walls.iter_mut().zip(v.chunks_exact(6)) {
             w.force = Vec3::new(from_fixed(c[0]), from_fixed(c[1]), from_fixed(c[2]));
             w.torque = Vec3::new(from_fixed(c[3]), from_fixed(c[4]), from_fixed(c[5]));
         }
-        self.par.comm_s += t.elapsed().as_secs_f64();
+        let dt = t.elapsed().as_secs_f64();
+        self.par.timers.wall_sums += dt;
+        self.par.timers.comm_s += dt;
     }
 
     /// Exact global sums of fixed-point values (a collective).
@@ -501,7 +499,7 @@ impl Simulation {
     pub fn step(&mut self) -> Result<(), TalusError> {
         self.prepare()?;
         let t0 = Instant::now();
-        let comm0 = self.par.comm_s;
+        let comm0 = self.par.timers.comm_s;
         let dt = self.set.dt;
         let dim = self.set.dim;
         match self.set.integrator {
@@ -532,8 +530,8 @@ impl Simulation {
             }
             IntegratorKind::Gear => self.state.gear.correct(&mut self.state.p, dt, dim),
         }
-        let compute = (t0.elapsed().as_secs_f64() - (self.par.comm_s - comm0)).max(0.0);
-        self.par.compute_s += compute;
+        let compute = (t0.elapsed().as_secs_f64() - (self.par.timers.comm_s - comm0)).max(0.0);
+        self.par.timers.compute_s += compute;
         self.reduce_walls();
         self.par.after_step(&self.state.p, compute);
         self.state.step += 1;

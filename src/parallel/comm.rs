@@ -173,16 +173,3 @@ impl Comm {
         }
     }
 }
-
-/// Fixed-point scale of exact sums: 2^64 (resolution 5.4e-20, range +-9.2e18).
-pub const FIXED_SCALE: f64 = 18446744073709551616.0;
-
-#[inline(always)]
-pub fn to_fixed(x: f64) -> i128 {
-    (x * FIXED_SCALE) as i128
-}
-
-#[inline(always)]
-pub fn from_fixed(x: i128) -> f64 {
-    x as f64 / FIXED_SCALE
-}

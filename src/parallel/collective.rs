@@ -1,0 +1,54 @@
+//! Collectives that steer the run: the per-step agreement (rebuild, failure,
+//! signal) and making an error on one rank an error on every rank, so all
+//! ranks stop at the same step and write the same outputs.
+
+use super::Parallel;
+use crate::error::TalusError;
+
+impl Parallel {
+    /// "rank r of P: " before a message under MPI; nothing with one rank.
+    fn label(&self, msg: &str) -> String {
+        if self.size() > 1 { format!("rank {} of {}: {msg}", self.rank(), self.size()) } else { msg.to_string() }
+    }
+
+    /// Every rank's message (empty ones dropped), joined.
+    fn gather_messages(&self, mine: Option<String>) -> String {
+        let mine = mine.map(|m| self.label(&m)).unwrap_or_default();
+        let all = self.comm.all_gather_bytes(mine.as_bytes());
+        let msgs: Vec<String> = all.iter().filter(|m| !m.is_empty()).map(|m| String::from_utf8_lossy(m).to_string()).collect();
+        msgs.join("; ")
+    }
+
+    /// One collective per step: whether any rank needs a list rebuild, and
+    /// whether any rank has failed (then every rank gets every rank's message).
+    /// A stop asked for by a signal on any rank (see `crate::signals`) is
+    /// agreed on in the same collective and kept in `stop`.
+    pub fn agree(&mut self, need: bool, error: Option<String>) -> (bool, Option<String>) {
+        let t = std::time::Instant::now();
+        let signal = crate::signals::requested();
+        let mut v = [need as u8 as f64, error.is_some() as u8 as f64, signal.unwrap_or(0) as f64];
+        self.comm.max_f64(&mut v);
+        if v[2] > 0.0 && self.stop.is_none() {
+            self.stop = Some(v[2] as i32);
+        }
+        let err = (v[1] > 0.0).then(|| self.gather_messages(error));
+        let dt = t.elapsed().as_secs_f64();
+        self.timers.agree += dt;
+        self.timers.comm_s += dt;
+        (v[0] > 0.0, err)
+    }
+
+    /// Make a result collective: if it is an error on any rank, it is an error
+    /// on every rank (with every failing rank's message).
+    pub fn collective<T>(&self, r: Result<T, TalusError>) -> Result<T, TalusError> {
+        let mut v = [r.is_err() as u8 as f64];
+        self.comm.max_f64(&mut v);
+        if v[0] == 0.0 {
+            return r;
+        }
+        if self.size() == 1 {
+            return r; // the error itself, with its own kind
+        }
+        Err(TalusError::Run(self.gather_messages(r.err().map(|e| e.to_string()))))
+    }
+}

@@ -1,0 +1,209 @@
+//! Migration: particles whose owner changed (they left the box, or the planes
+//! moved) go to their new owner with their Gear derivatives and every contact
+//! history entry that involves them; arrivals are merged in id order. The
+//! history is routed by one [`Router`] whether it comes from the current list
+//! (at a rebuild: local indices, no lookups) or keyed by ids (set-up, restart).
+
+use super::{bin, unbin, Parallel};
+use crate::dim::Vec3;
+use crate::integrate::GearState;
+use crate::neighbor::{History, NeighborList};
+use crate::particles::{Particles, Record};
+use serde::{Deserialize, Serialize};
+
+/// What migrates with particles to one rank.
+#[derive(Serialize, Deserialize, Default)]
+pub(super) struct Migration {
+    recs: Vec<Record>,
+    gear: Vec<Vec<Vec3>>,
+    hist: History,
+}
+
+/// Routes history entries: to this rank if one of the entry's particles is
+/// owned here after the migration, and to each other rank one of them moves to
+/// (once per rank). Entries involving no particle of this rank are dropped.
+struct Router<'a> {
+    me: usize,
+    keep: History,
+    out: &'a mut [Migration],
+}
+
+impl Router<'_> {
+    /// A pair entry whose particles go to `da` and `db` (None: not owned here).
+    fn pair(&mut self, e: ((u64, u64), Vec3), da: Option<usize>, db: Option<usize>) {
+        if da == Some(self.me) || db == Some(self.me) {
+            self.keep.pairs.push(e);
+        }
+        if let Some(r) = da.filter(|&r| r != self.me) {
+            self.out[r].hist.pairs.push(e);
+        }
+        if let Some(r) = db.filter(|&r| r != self.me && Some(r) != da) {
+            self.out[r].hist.pairs.push(e);
+        }
+    }
+
+    /// A wall entry of a particle that goes to `d`.
+    fn wall(&mut self, e: ((u64, u16, u32), Vec3), d: usize) {
+        if d == self.me {
+            self.keep.walls.push(e);
+        } else {
+            self.out[d].hist.walls.push(e);
+        }
+    }
+}
+
+impl Parallel {
+    /// Keep, out of the full set of particles (every rank holds the same), the
+    /// ones this rank owns; with their Gear derivatives and the history that
+    /// involves them. Used at set-up and at a restart.
+    pub fn take_own(&self, p: &mut Particles, gear: &mut GearState, hist: &mut History) {
+        let me = self.rank();
+        let keep: Vec<usize> = (0..p.len()).filter(|&i| self.dec.owner(&p.pos[i]) == me).collect();
+        let rows: Vec<Vec<Vec3>> = keep.iter().map(|&i| gear.get(i)).collect();
+        p.permute(&keep);
+        gear.set_all(&rows);
+        let ids = &p.id;
+        let mine = |id: u64| ids.binary_search(&id).is_ok();
+        hist.pairs.retain(|((a, b), _)| mine(*a) || mine(*b));
+        hist.walls.retain(|((a, _, _), _)| mine(*a));
+    }
+
+    /// Planes for equal particle counts, from the full set of positions (every rank has the same).
+    pub fn refit_all(&mut self, pos: &[Vec3]) {
+        self.dec.fit(&super::comm::Comm::Serial, pos, &vec![1.0; pos.len()]);
+    }
+
+    /// The new owner of each owned particle, and one empty message per rank.
+    fn destinations(&self, p: &Particles) -> (Vec<usize>, Vec<Migration>) {
+        let dest = (0..p.owned()).map(|i| self.dec.owner(&p.pos[i])).collect();
+        (dest, (0..self.size()).map(|_| Migration::default()).collect())
+    }
+
+    /// Pack the owned particles that leave (with their Gear rows) into their messages.
+    fn pack_leaving(&self, p: &Particles, gear: &GearState, dest: &[usize], out: &mut [Migration]) {
+        let me = self.rank();
+        for (i, &d) in dest.iter().enumerate() {
+            if d != me {
+                out[d].recs.push(p.record(i));
+                out[d].gear.push(gear.get(i));
+            }
+        }
+    }
+
+    /// At a list rebuild: migrate the particles whose owner changed with their
+    /// Gear derivatives and the contact history that involves them (read from
+    /// the current list by local index), then remake the ghosts. Returns the
+    /// history the new list must use.
+    pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> History {
+        let n = p.owned();
+        let (dest, mut out) = self.destinations(p);
+        let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
+        let zero = Vec3::zeros();
+        for (k, &(a, b)) in nl.pairs.iter().enumerate() {
+            let h = nl.pair_hist[k];
+            if h != zero {
+                let (a, b) = (a as usize, b as usize);
+                route.pair(((p.id[a], p.id[b]), h), (a < n).then(|| dest[a]), (b < n).then(|| dest[b]));
+            }
+        }
+        for i in 0..n.min(nl.wall_start.len().saturating_sub(1)) {
+            for k in nl.wall_start[i] as usize..nl.wall_start[i + 1] as usize {
+                let h = nl.wall_hist[k];
+                if h != zero {
+                    let (w, f) = nl.wall_feat[k];
+                    route.wall(((p.id[i], w, f), h), dest[i]);
+                }
+            }
+        }
+        let mut hist = route.keep;
+        // the list is in id order already; sorting is then a linear check
+        hist.pairs.sort_unstable_by_key(|x| x.0);
+        hist.walls.sort_unstable_by_key(|x| x.0);
+        p.drop_ghosts();
+        self.pack_leaving(p, gear, &dest, &mut out);
+        self.exchange_owned(p, gear, hist, out, &dest)
+    }
+
+    /// Migrate particles that left this rank's box (used at set-up and restart,
+    /// with the history given keyed by ids), then rebuild the ghost layer.
+    pub fn migrate(&mut self, p: &mut Particles, gear: &mut GearState, hist: History) -> History {
+        p.drop_ghosts();
+        let (dest, mut out) = self.destinations(p);
+        // owned ids are sorted: a binary search finds an entry's particles
+        let to = |id: u64| p.id.binary_search(&id).ok().map(|i| dest[i]);
+        let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
+        for e in hist.pairs {
+            route.pair(e, to(e.0 .0), to(e.0 .1));
+        }
+        for e in hist.walls {
+            if let Some(d) = to(e.0 .0) {
+                route.wall(e, d);
+            }
+        }
+        let hist = route.keep;
+        self.pack_leaving(p, gear, &dest, &mut out);
+        self.exchange_owned(p, gear, hist, out, &dest)
+    }
+
+    /// Send the migrants (`out[r]` for rank r), receive this rank's, merge them
+    /// in id order with the particles that stay (`dest[i] == me`), then remake the ghosts.
+    fn exchange_owned(
+        &mut self,
+        p: &mut Particles,
+        gear: &mut GearState,
+        mut hist: History,
+        out: Vec<Migration>,
+        dest: &[usize],
+    ) -> History {
+        let me = self.rank();
+        let msgs: Vec<Vec<u8>> =
+            out.iter().enumerate().map(|(r, m)| if r == me || m.recs.is_empty() { Vec::new() } else { bin(m) }).collect();
+        let got = self.comm.exchange_bytes(&msgs);
+        let mut arrived: Vec<(Record, Vec<Vec3>)> = Vec::new();
+        let mut add = History::default();
+        for (r, m) in got.iter().enumerate() {
+            if r == me || m.is_empty() {
+                continue;
+            }
+            let m: Migration = unbin(m);
+            let mut g = m.gear.into_iter();
+            for rec in m.recs {
+                arrived.push((rec, g.next().unwrap_or_default()));
+            }
+            add.pairs.extend(m.hist.pairs);
+            add.walls.extend(m.hist.walls);
+        }
+        if dest.iter().any(|&d| d != me) || !arrived.is_empty() {
+            merge_arrivals(p, gear, dest, me, arrived);
+            if !add.pairs.is_empty() || !add.walls.is_empty() {
+                add.normalise();
+                hist.merge(add);
+            }
+        }
+        self.make_ghosts(p);
+        hist
+    }
+}
+
+/// Merge the particles that stay (in id order) with the arrivals (sorted by id here).
+fn merge_arrivals(p: &mut Particles, gear: &mut GearState, dest: &[usize], me: usize, mut arrived: Vec<(Record, Vec<Vec3>)>) {
+    arrived.sort_by_key(|a| a.0.id);
+    let mut q = Particles::default();
+    let mut rows: Vec<Vec<Vec3>> = Vec::new();
+    let mut k = 0;
+    for i in (0..p.len()).filter(|&i| dest[i] == me) {
+        while k < arrived.len() && arrived[k].0.id < p.id[i] {
+            q.push_record(&arrived[k].0);
+            rows.push(std::mem::take(&mut arrived[k].1));
+            k += 1;
+        }
+        q.push_record(&p.record(i));
+        rows.push(gear.get(i));
+    }
+    for a in arrived[k..].iter_mut() {
+        q.push_record(&a.0);
+        rows.push(std::mem::take(&mut a.1));
+    }
+    *p = q;
+    gear.set_all(&rows);
+}
