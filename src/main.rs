@@ -65,9 +65,7 @@ fn main() -> ExitCode {
         // a rank that panics ends the whole job, naming itself and the cause
         std::panic::set_hook(Box::new(move |info| {
             eprintln!("talus: rank {rank} of {size} failed: {info}; ending the job");
-            unsafe {
-                mpi::ffi::MPI_Abort(mpi::ffi::RSMPI_COMM_WORLD, 70);
-            }
+            talus::parallel::comm::abort_world(70);
         }));
     }
     let result = real_main(cli, comm);

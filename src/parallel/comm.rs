@@ -2,12 +2,22 @@
 //! without MPI (one process, every collective a no-op); `Comm::Mpi` wraps
 //! rsmpi's world communicator. Everything physics needs from other ranks goes
 //! through the handful of operations here.
+//!
+//! MPI is the cargo feature `mpi` (on by default). Without it (a library or
+//! Python wheel built where no MPI is installed) only `Comm::Serial` exists and
+//! a run started by mpirun says so and runs serially on every rank.
 
+// without MPI every collective leaves its buffer as it is
+#![cfg_attr(not(feature = "mpi"), allow(unused_variables))]
+
+#[cfg(feature = "mpi")]
 use mpi::datatype::PartitionMut;
+#[cfg(feature = "mpi")]
 use mpi::traits::*;
 
 pub enum Comm {
     Serial,
+    #[cfg(feature = "mpi")]
     Mpi { world: mpi::topology::SimpleCommunicator, _universe: mpi::environment::Universe },
 }
 
@@ -21,11 +31,16 @@ pub fn launched_by_mpi() -> bool {
 impl Comm {
     /// MPI when launched by mpirun, else serial (P = 1 needs no mpirun).
     pub fn init() -> Comm {
+        #[cfg(feature = "mpi")]
         if launched_by_mpi() {
             if let Some(u) = mpi::initialize() {
                 let world = u.world();
                 return Comm::Mpi { world, _universe: u };
             }
+        }
+        #[cfg(not(feature = "mpi"))]
+        if launched_by_mpi() {
+            eprintln!("talus: warning: built without the `mpi` feature; every rank runs the whole case serially");
         }
         Comm::Serial
     }
@@ -33,6 +48,7 @@ impl Comm {
     pub fn rank(&self) -> usize {
         match self {
             Comm::Serial => 0,
+            #[cfg(feature = "mpi")]
             Comm::Mpi { world, .. } => world.rank() as usize,
         }
     }
@@ -40,6 +56,7 @@ impl Comm {
     pub fn size(&self) -> usize {
         match self {
             Comm::Serial => 1,
+            #[cfg(feature = "mpi")]
             Comm::Mpi { world, .. } => world.size() as usize,
         }
     }
@@ -50,6 +67,7 @@ impl Comm {
 
     /// Element-wise maximum over ranks, in place.
     pub fn max_f64(&self, x: &mut [f64]) {
+        #[cfg(feature = "mpi")]
         if let Comm::Mpi { world, .. } = self {
             let send = x.to_vec();
             world.all_reduce_into(&send[..], x, mpi::collective::SystemOperation::max());
@@ -59,6 +77,7 @@ impl Comm {
     /// Element-wise sum over ranks, in place (floating point: the order of the
     /// sum is MPI's; use `sum_exact` where the result must not depend on P).
     pub fn sum_f64(&self, x: &mut [f64]) {
+        #[cfg(feature = "mpi")]
         if let Comm::Mpi { world, .. } = self {
             let send = x.to_vec();
             world.all_reduce_into(&send[..], x, mpi::collective::SystemOperation::sum());
@@ -66,6 +85,7 @@ impl Comm {
     }
 
     pub fn sum_u64(&self, x: &mut [u64]) {
+        #[cfg(feature = "mpi")]
         if let Comm::Mpi { world, .. } = self {
             let send = x.to_vec();
             world.all_reduce_into(&send[..], x, mpi::collective::SystemOperation::sum());
@@ -75,6 +95,7 @@ impl Comm {
     /// Exact element-wise sum of fixed-point values over ranks (integer
     /// addition is associative, so the result is the same for every P).
     pub fn sum_exact(&self, x: &mut [i128]) {
+        #[cfg(feature = "mpi")]
         if let Comm::Mpi { world, .. } = self {
             let send: Vec<i64> = x.iter().flat_map(|v| [(*v >> 64) as i64, *v as u64 as i64]).collect();
             let p = world.size() as usize;
@@ -97,6 +118,7 @@ impl Comm {
     pub fn all_gather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         match self {
             Comm::Serial => vec![mine.to_vec()],
+            #[cfg(feature = "mpi")]
             Comm::Mpi { world, .. } => {
                 let p = world.size() as usize;
                 let n = mine.len() as i32;
@@ -118,7 +140,11 @@ impl Comm {
     /// sizes both sides know: `sends[k]` goes to `to[k]`, `recvs[k]` is filled from
     /// `from[k]`. Returns when all have completed.
     pub fn exchange_f64(&self, to: &[usize], sends: &[Vec<f64>], from: &[usize], recvs: &mut [Vec<f64>]) {
+        #[cfg(not(feature = "mpi"))]
+        let _ = (to, sends, from, recvs);
+        #[cfg(feature = "mpi")]
         let Comm::Mpi { world, .. } = self else { return };
+        #[cfg(feature = "mpi")]
         mpi::request::multiple_scope(to.len() + from.len(), |scope, coll| {
             for (k, buf) in recvs.iter_mut().enumerate() {
                 coll.add(world.process_at_rank(from[k] as i32).immediate_receive_into(scope, &mut buf[..]));
@@ -138,6 +164,7 @@ impl Comm {
     pub fn exchange_bytes(&self, out: &[Vec<u8>]) -> Vec<Vec<u8>> {
         match self {
             Comm::Serial => vec![out.first().cloned().unwrap_or_default()],
+            #[cfg(feature = "mpi")]
             Comm::Mpi { world, .. } => {
                 let p = world.size() as usize;
                 let me = world.rank() as usize;
@@ -169,7 +196,18 @@ impl Comm {
     pub fn abort(&self, code: i32) -> ! {
         match self {
             Comm::Serial => std::process::exit(code),
+            #[cfg(feature = "mpi")]
             Comm::Mpi { world, .. } => world.abort(code),
         }
     }
+}
+
+/// End the whole MPI job from anywhere (a panic hook): MPI_Abort on the world
+/// communicator; without MPI, exit.
+pub fn abort_world(code: i32) -> ! {
+    #[cfg(feature = "mpi")]
+    unsafe {
+        mpi::ffi::MPI_Abort(mpi::ffi::RSMPI_COMM_WORLD, code);
+    }
+    std::process::exit(code)
 }
