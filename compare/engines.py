@@ -2,6 +2,7 @@
 import re
 import shutil
 import subprocess
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,40 +40,53 @@ def _run(cmd, log, cwd=ROOT):
         raise EngineError(f"{' '.join(map(str, cmd))} failed (exit {p.returncode}); log {log}:\n{tail}")
 
 
-def _sub(text, pattern, repl, what):
-    new, n = re.subn(pattern, repl, text, count=1, flags=re.M)
-    if n != 1:
-        raise EngineError(f"talus case template: cannot set {what}")
-    return new
+def case_path(setup):
+    """The talus case file of a set-up."""
+    return ROOT / "cases" / f"{setup}.toml"
 
 
-def talus_sc_case(run, convention, dt):
-    """talus's own SC case file with this run's numbers."""
-    name = {"SC-wall": "SC-wall.toml", "SC-pair": "SC-pair.toml", "SC-oblique": "SC-oblique.toml"}[run.setup]
-    text = (ROOT / "cases" / name).read_text()
-    text = _sub(text, r"^restitution = .*$", f"restitution = {run.e!r}", "restitution")
-    text = _sub(text, r"^convention = .*$", f'convention = "{convention}"', "convention")
-    text = _sub(text, r"^timestep = .*$", f"timestep = {dt!r}", "timestep")
-    text = _sub(text, r"^interval = .*$", f"interval = {dt!r}", "output interval")
+def read_case(setup):
+    """A talus case file as a dict (tomllib)."""
+    with open(case_path(setup), "rb") as f:
+        return tomllib.load(f)
+
+
+def toml_value(v):
+    """A Python value as a TOML value for `talus run --set KEY=VALUE`."""
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + " }"
+    return repr(float(v)) if isinstance(v, float) else repr(v)
+
+
+def sets(values):
+    """`--set KEY=VALUE` arguments for talus from a dict of dotted keys."""
+    return [a for k, v in values.items() for a in ("--set", f"{k}={toml_value(v)}")]
+
+
+def talus_sc_sets(run, convention, dt):
+    """The changes to talus's own SC case file for this run (applied with --set)."""
+    v = {"material[0].restitution": run.e, "contact.convention": convention,
+         "simulation.timestep": dt, "output.interval": dt}
     if run.model == "hooke":
         h = run.hooke
-        text = _sub(
-            text, r'^model = "hertz"$',
-            f'model = "hooke"\nstiffness = {{ kn = {h.kn!r}, kt = {h.kt!r}, gamma_n = {h.gamma_n!r}, gamma_t = {h.gamma_t!r} }}',
-            "model")
+        v["contact.model"] = "hooke"
+        v["contact.stiffness"] = {"kn": h.kn, "kt": h.kt, "gamma_n": h.gamma_n, "gamma_t": h.gamma_t}
     if run.setup == "SC-oblique":
         import math
         a = math.radians(run.angle)
-        text = _sub(text, r"velocity = \[[^\]]*\]", f"velocity = [{0.5 * math.sin(a)!r}, 0.0, {-0.5 * math.cos(a)!r}]", "velocity")
-    return text
+        v["particles.list[0].velocity"] = [0.5 * math.sin(a), 0.0, -0.5 * math.cos(a)]
+    return v
 
 
 def run_talus_sc(run, convention, work, dt):
     work.mkdir(parents=True, exist_ok=True)
-    case = work / f"talus-{convention}.toml"
-    case.write_text(talus_sc_case(run, convention, dt))
     out = work / f"talus-{convention}"
-    _run([TALUS, "run", case, "--out", out, "--quiet"], work / f"talus-{convention}.log")
+    _run([TALUS, "run", case_path(run.setup), "--out", out, "--quiet", *sets(talus_sc_sets(run, convention, dt))],
+         work / f"talus-{convention}.log")
     return out / "probes.csv"
 
 
@@ -104,25 +118,16 @@ def run_yade_sc(run, work, dt):
     return out
 
 
-def talus_h1_case(setup, convention):
-    text = (ROOT / "cases" / f"{setup}.toml").read_text()
-    text = _sub(text, r"^convention = .*$", f'convention = "{convention}"', "convention")
-    text = _sub(text, r"^snapshot_interval = .*$", "snapshot_interval = 1000.0", "snapshots")
-    text = text.replace('stl = "meshes/', f'stl = "{ROOT}/cases/meshes/')
-    return text
-
-
 def run_talus_h1(setup, convention, work, max_steps=None, ranks=1):
     """talus on H1 (on `ranks` MPI ranks if more than one); returns (probes.csv, summary dict)."""
     import json
     work.mkdir(parents=True, exist_ok=True)
-    case = work / f"talus-{convention}.toml"
-    case.write_text(talus_h1_case(setup, convention))
     tag = f"talus-{convention}" + (f"-p{ranks}" if ranks > 1 else "")
     out = work / tag
     extra = ["--steps", str(max_steps)] if max_steps else []
+    extra += sets({"contact.convention": convention, "output.snapshot_interval": 1000.0})
     mpi = ["mpirun", "--allow-run-as-root", "-n", str(ranks)] if ranks > 1 else []
-    _run([*mpi, TALUS, "run", case, "--out", out, "--quiet", *extra], work / f"{tag}.log")
+    _run([*mpi, TALUS, "run", case_path(setup), "--out", out, "--quiet", *extra], work / f"{tag}.log")
     return out / "probes.csv", json.loads((out / "summary.json").read_text())
 
 

@@ -2,7 +2,6 @@
 import csv
 import json
 import math
-import re
 
 import numpy as np
 
@@ -10,10 +9,10 @@ from . import engines, figures, tolerances
 
 
 def _case_numbers(setup):
-    text = (engines.ROOT / "cases" / f"{setup}.toml").read_text()
-    get = lambda k: float(re.search(rf"{k} = ([0-9.eE+-]+)", text).group(1))
-    return {"r_min": get("radius_min"), "r_max": get("radius_max"), "skin": get("skin"),
-            "discharge": float(re.findall(r"^duration = ([0-9.eE+-]+)", text, re.M)[-1])}
+    c = engines.read_case(setup)
+    lat = c["particles"]["lattice"]
+    return {"r_min": lat["radius_min"], "r_max": lat["radius_max"], "skin": c["simulation"]["skin"],
+            "discharge": c["phase"][-1]["duration"], "density": c["material"][0]["density"]}
 
 
 def read_probes(path):
@@ -80,7 +79,7 @@ def compare_h1(setup, engs, out):
         _run_talus(setup, "talus", out / "talus", result, series_out)
     weight = result["total_weight_n"]
     d = nums["r_min"] + nums["r_max"]  # mean diameter
-    rho_b = tolerances.BULK_FRACTION * 2500.0
+    rho_b = tolerances.BULK_FRACTION * nums["density"]
     bev = figures.beverloo(rho_b, 0.04, d, tolerances.BEVERLOO_C, tolerances.BEVERLOO_K)
     result["beverloo_kg_s"] = bev
     for name, g in result["engines"].items():

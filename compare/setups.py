@@ -1,14 +1,20 @@
-"""The canonical set-ups of ../shared/CASES.md, as numbers the harness hands to every engine."""
+"""The canonical set-ups of ../shared/CASES.md, as numbers the harness hands to every engine.
+The material (seed-soft), the SC sphere and time step are read from talus's own case file,
+so each number exists once."""
 from dataclasses import dataclass, field
+from pathlib import Path
 import math
+import tomllib
 
-# material seed-soft (CASES.md)
-E = 1.0e6
-NU = 0.3
-RHO = 2500.0
-MU = 0.4
-R = 0.002  # SC sphere radius (m)
-DT_SC = 5e-6  # SC time step (s): < 1/200 of the ~1.1-1.5 ms contacts
+with open(Path(__file__).resolve().parent.parent / "cases" / "SC-wall.toml", "rb") as _f:
+    _SC = tomllib.load(_f)
+_SEED_SOFT = _SC["material"][0]
+E = _SEED_SOFT["youngs_modulus"]
+NU = _SEED_SOFT["poisson_ratio"]
+RHO = _SEED_SOFT["density"]
+MU = _SEED_SOFT["friction"]
+R = _SC["particles"]["list"][0]["radius"]  # SC sphere radius (m)
+DT_SC = _SC["simulation"]["timestep"]  # SC time step (s): < 1/200 of the ~1.1-1.5 ms contacts
 E_SWEEP = [0.1, 0.3, 0.5, 0.7, 0.9]
 ANGLES = [10, 30, 45, 60, 80]
 OBLIQUE_E = 0.5

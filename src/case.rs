@@ -334,6 +334,13 @@ fn default_window() -> f64 {
     0.1
 }
 
+/// A TOML error with the file and line.
+fn syntax_error(text: &str, path: &Path, e: toml::de::Error) -> TalusError {
+    let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
+    let at = line.map(|l| format!(", line {l}")).unwrap_or_default();
+    TalusError::Input(format!("{}{at}: {}", path.display(), e.message()))
+}
+
 impl Case {
     /// Read and parse a case file. Syntax errors and unknown keys name the file and line.
     pub fn load(path: &Path) -> Result<Case, TalusError> {
@@ -342,13 +349,39 @@ impl Case {
         Case::parse(&text, path)
     }
 
+    /// Read a case file and change values in it (`--set KEY=VALUE`, see
+    /// [`crate::overrides`]) before it is validated.
+    pub fn load_with(path: &Path, sets: &[String]) -> Result<Case, TalusError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| TalusError::io(format!("cannot read case file {}", path.display()), e))?;
+        Case::parse_with(&text, path, sets)
+    }
+
+    /// Parse case text with `--set` changes applied.
+    pub fn parse_with(text: &str, path: &Path, sets: &[String]) -> Result<Case, TalusError> {
+        if sets.is_empty() {
+            return Case::parse(text, path);
+        }
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| syntax_error(text, path, e))?;
+        for s in sets {
+            let (key, value) = crate::overrides::parse(s)?;
+            crate::overrides::apply(&mut table, &key, value, s)?;
+        }
+        let case: Case = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
+            TalusError::Input(format!("{} with --set {}: {}", path.display(), sets.join(" --set "), e.message()))
+        })?;
+        case.located(path)
+    }
+
     /// Parse case text; `path` names it in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> Result<Case, TalusError> {
-        let mut case: Case = toml::from_str(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
-            let at = line.map(|l| format!(", line {l}")).unwrap_or_default();
-            TalusError::Input(format!("{}{at}: {}", path.display(), e.message()))
-        })?;
+        let case: Case = toml::from_str(text).map_err(|e| syntax_error(text, path, e))?;
+        case.located(path)
+    }
+
+    /// The case with its file's path (for messages and relative paths), validated.
+    fn located(self, path: &Path) -> Result<Case, TalusError> {
+        let mut case = self;
         case.path = path.to_path_buf();
         case.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         case.validate()?;

@@ -18,6 +18,7 @@ pub mod material;
 pub mod neighbor;
 pub mod parallel;
 pub mod output;
+pub mod overrides;
 pub mod particles;
 pub mod run;
 pub mod signals;

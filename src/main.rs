@@ -37,6 +37,11 @@ enum Cmd {
         /// Override the case's `[parallel] balance` (off, count, time, contacts).
         #[arg(long)]
         balance: Option<String>,
+        /// Change one value of the case: KEY=VALUE, KEY a dotted path
+        /// (`contact.convention=yade`, `material[0].restitution=0.3`,
+        /// `wall.gate.velocity=[0,0,-0.1]`), VALUE a TOML value. Repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
     },
     /// Run a drag case (the drag paper, CASES.md D2) over its seeded beds.
     Drag {
@@ -89,9 +94,9 @@ fn main() -> ExitCode {
 
 fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
     match cli.cmd {
-        Cmd::Run { case, out, steps, restart, quiet, balance } => {
+        Cmd::Run { case, out, steps, restart, quiet, balance, sets } => {
             let root = comm.is_root();
-            let mut c = Case::load(&case)?;
+            let mut c = Case::load_with(&case, &sets)?;
             if let Some(b) = balance {
                 c.parallel.balance = serde_json::from_value(serde_json::Value::String(b.clone())).map_err(|_| {
                     TalusError::Input(format!("--balance {b}: must be one of off, count, time, contacts"))
