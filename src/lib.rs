@@ -17,6 +17,7 @@ pub mod integrate;
 pub mod material;
 pub mod neighbor;
 pub mod parallel;
+pub mod observe;
 pub mod output;
 pub mod overrides;
 pub mod particles;

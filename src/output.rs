@@ -62,7 +62,7 @@ impl Probes {
     /// A collective: every rank calls it; returns the mass below the probe plane.
     pub fn write(&mut self, sim: &Simulation) -> Result<Option<f64>, TalusError> {
         let st = &sim.state;
-        let phase = sim.case.phases.get(st.phase).map(|p| p.name.as_str()).unwrap_or("end");
+        let phase = sim.phase_name();
         let ke = sim.kinetic_energy();
         let contacts = sim.contacts();
         let mb = self.mass_below_z.map(|z| sim.mass_below(z));

@@ -610,6 +610,11 @@ impl Simulation {
         self.state.nl.x_ref.clear();
     }
 
+    /// The current phase's name, or "end" after the last.
+    pub fn phase_name(&self) -> &str {
+        self.case.phases.get(self.state.phase).map(|p| p.name.as_str()).unwrap_or("end")
+    }
+
     /// Total simulated time of all phases at most (s).
     pub fn planned_time(&self) -> f64 {
         self.case.phases.iter().map(|p| p.duration).sum()

@@ -1,0 +1,238 @@
+//! Bookkeeping as observers the driver registers: probes, the per-rank log,
+//! snapshots, interval checkpoints, the progress bar (here), the drag series
+//! (`crate::drag`). The time step (`Simulation::step`) knows none of them.
+//!
+//! After every step the driver calls each observer's `after_step` in the order
+//! they were registered; every rank calls it (an observer that gathers is a
+//! collective). At the end of a run, or when a signal stops it, `finish` flushes
+//! and adds the observer's figures to the summary; after a failure, `flush`
+//! saves what was written.
+
+use crate::checkpoint;
+use crate::error::TalusError;
+use crate::output::{Probes, Snapshots};
+use crate::sim::Simulation;
+use serde_json::{json, Map, Value};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Something the driver calls after every step.
+pub trait Observer {
+    /// After a step that went from `t_prev` to `sim.state.time`.
+    fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError>;
+    /// At the end of the run: flush, and add figures to the summary.
+    fn finish(&mut self, _sim: &mut Simulation, _summary: &mut Map<String, Value>) -> Result<(), TalusError> {
+        Ok(())
+    }
+    /// After a failure: save what was written so far.
+    fn flush(&mut self) -> Result<(), TalusError> {
+        Ok(())
+    }
+}
+
+/// Whether a step from `t_prev` to `t` crossed a multiple of `interval` (half a
+/// step of tolerance, so rounding of t = step dt never skips or repeats one).
+pub fn crossed(t_prev: f64, t: f64, interval: f64, dt: f64) -> bool {
+    ((t + 0.5 * dt) / interval).floor() > ((t_prev + 0.5 * dt) / interval).floor()
+}
+
+/// `probes.csv` every `output.interval`; the analysis samples the mass below
+/// the probe plane at the same times.
+pub struct ProbeLog {
+    probes: Probes,
+}
+
+impl ProbeLog {
+    pub fn new(probes: Probes) -> ProbeLog {
+        ProbeLog { probes }
+    }
+
+    /// The row of the current state (a collective).
+    pub fn write(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
+        let mb = sim.par.collective(self.probes.write(sim))?;
+        let t = sim.state.time;
+        sim.state.analysis.sample(t, mb.unwrap_or(0.0));
+        Ok(())
+    }
+}
+
+impl Observer for ProbeLog {
+    fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
+        if crossed(t_prev, sim.state.time, sim.case.output.interval, sim.set.dt) {
+            self.write(sim)?;
+        }
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, _: &mut Map<String, Value>) -> Result<(), TalusError> {
+        sim.par.collective(self.probes.flush())
+    }
+    fn flush(&mut self) -> Result<(), TalusError> {
+        self.probes.flush()
+    }
+}
+
+/// HDF5 snapshots every `output.snapshot_interval` (rank 0 writes).
+pub struct SnapshotLog {
+    snaps: Option<Snapshots>,
+    interval: f64,
+}
+
+impl SnapshotLog {
+    pub fn new(snaps: Option<Snapshots>, interval: f64) -> SnapshotLog {
+        SnapshotLog { snaps, interval }
+    }
+
+    /// Gather every particle and let rank 0 write a snapshot (a collective).
+    pub fn write(&mut self, sim: &Simulation) -> Result<(), TalusError> {
+        let (recs, _) = sim.par.gather_all(&sim.state.p, &sim.state.gear);
+        let r = match self.snaps.as_mut() {
+            Some(s) => s.write(&sim.state, &recs),
+            None => Ok(()),
+        };
+        sim.par.collective(r)
+    }
+}
+
+impl Observer for SnapshotLog {
+    fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
+        if crossed(t_prev, sim.state.time, self.interval, sim.set.dt) {
+            self.write(sim)?;
+        }
+        Ok(())
+    }
+}
+
+/// `checkpoint.bin` every `output.checkpoint_interval`.
+pub struct Checkpoints {
+    path: PathBuf,
+    interval: f64,
+}
+
+impl Checkpoints {
+    pub fn new(dir: &Path, interval: f64) -> Checkpoints {
+        Checkpoints { path: dir.join("checkpoint.bin"), interval }
+    }
+}
+
+impl Observer for Checkpoints {
+    fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
+        if crossed(t_prev, sim.state.time, self.interval, sim.set.dt) {
+            checkpoint::write(sim, &self.path)?;
+        }
+        Ok(())
+    }
+}
+
+/// The progress bar (rank 0): step, simulated time, particle-steps per second, ETA.
+pub struct Progress {
+    bar: indicatif::ProgressBar,
+    start: Instant,
+    first_step: u64,
+    particles: f64,
+}
+
+impl Progress {
+    pub fn new(sim: &Simulation, particles: f64) -> Progress {
+        let planned = (sim.planned_time() / sim.set.dt).ceil() as u64;
+        let bar = indicatif::ProgressBar::new(planned);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{bar:30} step {pos}/{len}  {msg}  ETA {eta}").expect("a valid template"),
+        );
+        bar.set_position(sim.state.step);
+        Progress { bar, start: Instant::now(), first_step: sim.state.step, particles }
+    }
+}
+
+impl Observer for Progress {
+    fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
+        let steps = sim.state.step - self.first_step;
+        if steps % 200 == 0 {
+            let rate = self.particles * steps as f64 / self.start.elapsed().as_secs_f64();
+            self.bar.set_position(sim.state.step);
+            self.bar.set_message(format!("t = {:.4} s  {rate:.2e} particle-steps/s", sim.state.time));
+        }
+        Ok(())
+    }
+    fn finish(&mut self, _: &mut Simulation, _: &mut Map<String, Value>) -> Result<(), TalusError> {
+        self.bar.finish_and_clear();
+        Ok(())
+    }
+}
+
+/// Per-rank diagnostics (`ranks.csv`): at each output interval, every rank's
+/// owned particles, ghosts, contacts evaluated, compute and communication time
+/// over the interval, and the imbalance (max over mean) of compute time and of
+/// work (particles + contacts). Rank 0 writes; the means per phase go into the
+/// summary (`imbalance_time_<phase>`, `imbalance_work_<phase>`) of a parallel run.
+pub struct RankLog {
+    out: Option<crate::durable::Series>,
+    /// Per phase: (sum of time imbalance, sum of work imbalance, rows).
+    per_phase: Vec<(String, f64, f64, u64)>,
+}
+
+impl RankLog {
+    pub fn create(dir: &Path, sim: &Simulation, resume: Option<u64>) -> Result<RankLog, TalusError> {
+        const HEADER: &str = "time_s,step,phase,rank,owned,ghosts,contacts,compute_s,comm_s,imbalance_time,imbalance_work";
+        let out = if sim.par.comm.is_root() {
+            Some(crate::durable::Series::open(&dir.join("ranks.csv"), HEADER, 1, resume))
+        } else {
+            None
+        };
+        let out = sim.par.collective(out.transpose())?;
+        Ok(RankLog { out, per_phase: Vec::new() })
+    }
+
+    fn write(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
+        let c = sim.par.gather_counters(&sim.state.p);
+        let imb = |f: &dyn Fn(&crate::parallel::RankCounters) -> f64| {
+            let v: Vec<f64> = c.iter().map(f).collect();
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            if mean > 0.0 { v.iter().cloned().fold(0.0, f64::max) / mean } else { 1.0 }
+        };
+        let it = imb(&|r| r.compute_s);
+        let iw = imb(&|r| (r.owned + r.contacts) as f64);
+        let phase = sim.phase_name().to_string();
+        match self.per_phase.iter_mut().find(|x| x.0 == phase) {
+            Some(e) => {
+                e.1 += it;
+                e.2 += iw;
+                e.3 += 1;
+            }
+            None => self.per_phase.push((phase.clone(), it, iw, 1)),
+        }
+        if let Some(w) = self.out.as_mut() {
+            for (r, x) in c.iter().enumerate() {
+                w.row(&format!(
+                    "{:.9e},{},{phase},{r},{},{},{},{:.6e},{:.6e},{it:.5},{iw:.5}",
+                    sim.state.time, sim.state.step, x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
+                ))?;
+            }
+            w.flush()?;
+        }
+        Ok(())
+    }
+}
+
+impl Observer for RankLog {
+    fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
+        if crossed(t_prev, sim.state.time, sim.case.output.interval, sim.set.dt) {
+            self.write(sim)?;
+        }
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, summary: &mut Map<String, Value>) -> Result<(), TalusError> {
+        if sim.par.size() > 1 {
+            for (ph, it, iw, n) in &self.per_phase {
+                summary.insert(format!("imbalance_time_{ph}"), json!(it / *n as f64));
+                summary.insert(format!("imbalance_work_{ph}"), json!(iw / *n as f64));
+            }
+        }
+        self.flush()
+    }
+    fn flush(&mut self) -> Result<(), TalusError> {
+        match self.out.as_mut() {
+            Some(w) => w.flush(),
+            None => Ok(()),
+        }
+    }
+}
