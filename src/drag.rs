@@ -23,6 +23,7 @@ use crate::contact::ellipse::{contact, Ellipse};
 use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::material::{Material, Mixing, PairTable};
+use crate::observe::{self, Observer};
 use crate::sim::{rayleigh_time, Simulation};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -337,6 +338,52 @@ pub struct BedResult {
     pub snapshots: Vec<(f64, Vec<(u64, f64, f64, f64, f64, f64)>)>,
 }
 
+/// The drag series of one bed, observed after every step of the drag: the
+/// force of the granules on the cylinder against its motion, and the granules
+/// at the start, middle and end.
+struct DragSeries {
+    cylinder: usize,
+    speed: f64,
+    n_drag: u64,
+    start_step: u64,
+    series: Vec<(f64, f64)>,
+    snapshots: Vec<(f64, Vec<(u64, f64, f64, f64, f64, f64)>)>,
+}
+
+impl DragSeries {
+    fn new(sim: &Simulation, cylinder: usize, speed: f64, n_drag: u64) -> DragSeries {
+        let mut s = DragSeries {
+            cylinder,
+            speed,
+            n_drag,
+            start_step: sim.state.step,
+            series: Vec::with_capacity(n_drag as usize),
+            snapshots: Vec::new(),
+        };
+        s.snapshot(sim, 0.0);
+        s
+    }
+
+    fn snapshot(&mut self, sim: &Simulation, s: f64) {
+        let p = &sim.state.p;
+        self.snapshots.push((s, (0..p.len()).map(|i| (p.id[i], p.pos[i].x, p.pos[i].y, p.radius[i], p.minor[i], p.angle[i])).collect()));
+    }
+}
+
+impl Observer for DragSeries {
+    fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
+        let k = sim.state.step - self.start_step;
+        let s = self.speed * sim.set.dt * k as f64;
+        if k == self.n_drag / 2 || k == self.n_drag {
+            self.snapshot(sim, s);
+        }
+        // force of the granules on the cylinder, against its motion
+        let f = sim.state.walls[self.cylinder].force;
+        self.series.push((s, -f.dot(&Vec3::new(0.0, self.speed, 0.0)) / self.speed));
+        Ok(())
+    }
+}
+
 /// Prepare one bed and drag the cylinder through it.
 pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let d = &dc.drag;
@@ -360,25 +407,15 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     for _ in 0..(d.settle_time / dt).ceil() as u64 {
         sim.step()?;
     }
-    // drag
+    // drag: the series is an observer of the steps
     let v = Vec3::new(0.0, d.cylinder_speed, 0.0);
     sim.state.walls[cyl].velocity = v;
     let n_drag = (d.travel / d.cylinder_speed / dt).ceil() as u64;
-    let mut series = Vec::with_capacity(n_drag as usize);
-    let snap = |sim: &Simulation, s: f64| {
-        let p = &sim.state.p;
-        (s, (0..p.len()).map(|i| (p.id[i], p.pos[i].x, p.pos[i].y, p.radius[i], p.minor[i], p.angle[i])).collect::<Vec<_>>())
-    };
-    let mut snapshots = vec![snap(&sim, 0.0)];
-    for k in 1..=n_drag {
-        sim.step()?;
-        if k == n_drag / 2 || k == n_drag {
-            snapshots.push(snap(&sim, d.cylinder_speed * dt * k as f64));
-        }
-        // force of the granules on the cylinder, against its motion
-        let f = sim.state.walls[cyl].force;
-        series.push((d.cylinder_speed * dt * k as f64, -f.dot(&v) / d.cylinder_speed));
+    let mut drag = DragSeries::new(&sim, cyl, d.cylinder_speed, n_drag);
+    for _ in 0..n_drag {
+        observe::step(&mut sim, &mut [&mut drag])?;
     }
+    let DragSeries { series, snapshots, .. } = drag;
     let [a, b] = d.average_window;
     let win: Vec<f64> = series.iter().filter(|(s, _)| *s >= a && *s <= b).map(|x| x.1).collect();
     let mean_drag = win.iter().sum::<f64>() / win.len().max(1) as f64;

@@ -30,6 +30,16 @@ pub trait Observer {
     }
 }
 
+/// Advance one step, then let every observer see it (in order).
+pub fn step(sim: &mut Simulation, observers: &mut [&mut dyn Observer]) -> Result<(), TalusError> {
+    let t_prev = sim.state.time;
+    sim.step()?;
+    for o in observers.iter_mut() {
+        o.after_step(sim, t_prev)?;
+    }
+    Ok(())
+}
+
 /// Whether a step from `t_prev` to `t` crossed a multiple of `interval` (half a
 /// step of tolerance, so rounding of t = step dt never skips or repeats one).
 pub fn crossed(t_prev: f64, t: f64, interval: f64, dt: f64) -> bool {
