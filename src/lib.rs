@@ -3,6 +3,7 @@
 
 pub mod analysis;
 pub mod case;
+pub mod checks;
 pub mod clump;
 pub mod contact;
 pub mod dim;
