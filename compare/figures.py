@@ -37,6 +37,7 @@ def sc_figures(path, setup):
     if setup == "SC-pair":
         x2 = _v3(s, "p2_", ["x_m", "y_m", "z_m"])
         v2 = _v3(s, "p2_", ["vx_m_s", "vy_m_s", "vz_m_s"])
+        w2 = _v3(s, "p2_", ["wx_rad_s", "wy_rad_s", "wz_rad_s"])
         n = x1[0] - x2[0]
         n = n / np.linalg.norm(n)
         overlap = 2 * R - np.linalg.norm(x1 - x2, axis=1)
@@ -57,7 +58,18 @@ def sc_figures(path, setup):
     te = t[k1 - 1] + (t[k1] - t[k1 - 1]) * overlap[k1 - 1] / (overlap[k1 - 1] - overlap[k1])
     vin, vout = vrel[0], vrel[-1]
     vt_in = vin - n * vin.dot(n)
-    tdir = vt_in / np.linalg.norm(vt_in) if np.linalg.norm(vt_in) > 0 else np.zeros(3)
+    # the tangential frame (as talus's src/analysis.rs `tangential_frame`): the incoming
+    # tangential velocity; else the slip of the contact point due to spin; else none
+    slip = np.cross(w1[0], -R * n)
+    if setup == "SC-pair":
+        slip = slip - np.cross(w2[0], R * n)
+    slip = slip - n * slip.dot(n)
+    if np.linalg.norm(vt_in) > 0:
+        tdir = vt_in / np.linalg.norm(vt_in)
+    elif np.linalg.norm(slip) > 0:
+        tdir = slip / np.linalg.norm(slip)
+    else:
+        tdir = np.zeros(3)
     axis = np.cross(n, tdir)
     fig = {
         "restitution": float(-vout.dot(n) / vin.dot(n)),

@@ -26,7 +26,8 @@ pub struct Collision {
     particle: u64,
     partner: Option<u64>,
     wall: Option<usize>,
-    /// Normal (from partner to particle) and tangential direction fixed at t = 0.
+    /// Normal (from partner to particle) and tangential direction fixed at t = 0
+    /// (the frame of the tangential figures; see `tangential_frame`).
     n: Vec3,
     t: Vec3,
     v_in: Vec3,
@@ -61,6 +62,34 @@ fn relative_velocity(p: &Particles, i: usize, j: Option<usize>) -> Vec3 {
 fn pair_of(tracked: &[Option<Record>]) -> (Record, Option<Record>) {
     let a = tracked[0].expect("the collision particle exists on some rank");
     (a, tracked.get(1).copied().flatten())
+}
+
+/// The tangential direction t of a collision's figures, fixed at t = 0 from the
+/// relative motion of the particle `i` and its partner `j` (none: a wall) along
+/// the normal `n` (from the partner or wall to the particle):
+///
+/// 1. the incoming tangential velocity v_t = v - (v.n) n, v = v_i - v_j, if not zero;
+/// 2. else the slip of the contact point due to spin, the tangential velocity
+///    w_i x (-r_i n) - w_j x (r_j n) (the contact point is -r_i n from the
+///    particle's centre and r_j n from the partner's), if not zero;
+/// 3. else none (t = 0: the tangential figures are 0).
+///
+/// `tangential_rebound_m_s` is then v_out.t and `spin_rad_s` is w_i.(n x t): a
+/// positive spin rolls the particle along +t. For a spinning particle dropped
+/// normally (case 2), the contact point slips along +t, friction pushes the
+/// particle along -t and brakes the spin: both figures come out negative.
+fn tangential_frame(p: &Particles, i: usize, j: Option<usize>, n: Vec3) -> Vec3 {
+    let v = relative_velocity(p, i, j);
+    let vt = v - n * v.dot(&n);
+    if vt.norm() > 0.0 {
+        return vt.normalize();
+    }
+    let mut slip = p.omega[i].cross(&(-n * p.radius[i]));
+    if let Some(j) = j {
+        slip -= p.omega[j].cross(&(n * p.radius[j]));
+    }
+    let slip = slip - n * slip.dot(&n);
+    if slip.norm() > 0.0 { slip.normalize() } else { Vec3::zeros() }
 }
 
 impl Analysis {
@@ -100,8 +129,7 @@ impl Analysis {
                     }
                 };
                 let v_in = relative_velocity(p, i, partner);
-                let vt = v_in - n * v_in.dot(&n);
-                let t = if vt.norm() > 0.0 { vt.normalize() } else { Vec3::zeros() };
+                let t = tangential_frame(p, i, partner, n);
                 Analysis::Collision(Collision {
                     particle: *particle,
                     partner: partner.map(|j| p.id[j]),

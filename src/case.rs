@@ -345,7 +345,7 @@ impl Case {
     /// Read and parse a case file. Syntax errors and unknown keys name the file and line.
     pub fn load(path: &Path) -> Result<Case, TalusError> {
         let text = std::fs::read_to_string(path)
-            .map_err(|e| TalusError::io(format!("cannot read case file {}", path.display()), e))?;
+            .map_err(|e| TalusError::Input(format!("cannot read case file {}: {e}", path.display())))?;
         Case::parse(&text, path)
     }
 
@@ -406,13 +406,51 @@ impl Case {
     }
 
     fn validate(&self) -> Result<(), TalusError> {
+        self.validate_materials()?;
+        self.validate_simulation()?;
+        self.validate_parallel()?;
+        self.validate_contact()?;
+        self.validate_particles()?;
+        let mut names = std::collections::HashSet::new();
+        for (i, w) in self.walls.iter().enumerate() {
+            self.check_name(&format!("wall[{i}].name"), &w.name)?;
+            if !names.insert(w.name.clone()) {
+                return Err(self.err(&format!("wall[{i}].name"), format!("\"{}\"", w.name), "wall names must be unique"));
+            }
+            self.validate_wall(w)?;
+        }
+        self.validate_phases()?;
+        self.validate_output()
+    }
+
+    /// A name that becomes part of a file name or a CSV column (walls, phases).
+    fn check_name(&self, key: &str, name: &str) -> Result<(), TalusError> {
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+            return Err(self.err(
+                key,
+                format!("\"{name}\""),
+                "a name must be non-empty and hold only letters A-Z a-z, digits 0-9, `_` and `-` (it names files and CSV columns)",
+            ));
+        }
+        Ok(())
+    }
+
+    fn validate_materials(&self) -> Result<(), TalusError> {
         let ctx = self.path.display().to_string();
         if self.materials.is_empty() {
             return Err(self.err("material", "[]", "at least one [[material]] is needed"));
         }
-        for m in &self.materials {
+        let mut names = std::collections::HashSet::new();
+        for (i, m) in self.materials.iter().enumerate() {
+            if !names.insert(m.name.as_str()) {
+                return Err(self.err(&format!("material[{i}].name"), format!("\"{}\"", m.name), "material names must be unique"));
+            }
             m.validate(&ctx)?;
         }
+        Ok(())
+    }
+
+    fn validate_simulation(&self) -> Result<(), TalusError> {
         let s = &self.simulation;
         match (s.timestep, s.timestep_rayleigh_fraction) {
             (Some(dt), None) if !(dt.is_finite() && dt > 0.0) => {
@@ -430,6 +468,34 @@ impl Case {
             }
             _ => {}
         }
+        if let Some(sk) = s.skin {
+            if !(sk.is_finite() && sk > 0.0) {
+                return Err(self.err("simulation.skin", sk, "the skin must be a positive length"));
+            }
+        }
+        if s.gravity.iter().any(|g| !g.is_finite()) {
+            return Err(self.err("simulation.gravity", format!("{:?}", s.gravity), "every component must be a finite number (m/s^2)"));
+        }
+        if s.dimension == Dimension::Two && s.gravity[2] != 0.0 {
+            return Err(self.err(
+                "simulation.gravity",
+                format!("{:?}", s.gravity),
+                "in 2D (simulation.dimension = \"2\") gravity lies in the x-y plane (z component 0)",
+            ));
+        }
+        let (lo, hi) = (s.domain.lo, s.domain.hi);
+        if lo.iter().chain(&hi).any(|x| !x.is_finite()) {
+            return Err(self.err("simulation.domain", format!("lo {lo:?} hi {hi:?}"), "every corner coordinate must be a finite number (m)"));
+        }
+        for k in 0..3 {
+            if !(lo[k] < hi[k]) {
+                return Err(self.err("simulation.domain", format!("lo {lo:?} hi {hi:?}"), "every lo must be below its hi"));
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_parallel(&self) -> Result<(), TalusError> {
         let par = &self.parallel;
         if !(par.imbalance_percent.is_finite() && par.imbalance_percent > 0.0) {
             return Err(self.err("parallel.imbalance_percent", par.imbalance_percent, "must be a positive percentage"));
@@ -441,21 +507,18 @@ impl Case {
             if g.iter().any(|&n| n == 0) {
                 return Err(self.err("parallel.grid", format!("{g:?}"), "every count must be at least 1"));
             }
-        }
-        if let Some(sk) = s.skin {
-            if !(sk.is_finite() && sk > 0.0) {
-                return Err(self.err("simulation.skin", sk, "the skin must be a positive length"));
-            }
-        }
-        for k in 0..3 {
-            if !(s.domain.lo[k] < s.domain.hi[k]) {
+            if g.iter().try_fold(1usize, |a, &n| a.checked_mul(n)).is_none() {
                 return Err(self.err(
-                    "simulation.domain",
-                    format!("lo {:?} hi {:?}", s.domain.lo, s.domain.hi),
-                    "every lo must be below its hi",
+                    "parallel.grid",
+                    format!("{g:?}"),
+                    "the product of the counts overflows; it must equal the number of MPI ranks",
                 ));
             }
         }
+        Ok(())
+    }
+
+    fn validate_contact(&self) -> Result<(), TalusError> {
         let c = &self.contact;
         match c.model {
             ModelName::Hooke => match (&c.stiffness, c.characteristic_velocity) {
@@ -488,88 +551,163 @@ impl Case {
                 }
             }
         }
+        Ok(())
+    }
+
+    fn validate_particles(&self) -> Result<(), TalusError> {
         let ps = &self.particles;
         self.material_index(&ps.material, "particles.material")?;
         let sources = ps.csv.is_some() as u8 + ps.lattice.is_some() as u8 + ps.list.is_some() as u8;
         if sources != 1 {
             return Err(self.err("particles", sources, "give exactly one of particles.csv, particles.lattice, particles.list"));
         }
+        if ps.overlap_tolerance.is_nan() || ps.overlap_tolerance < 0.0 {
+            return Err(self.err("particles.overlap_tolerance", ps.overlap_tolerance, "must be a fraction >= 0 of the radius"));
+        }
+        if ps.list.as_ref().is_some_and(|l| l.is_empty()) {
+            return Err(self.err("particles.list", "[]", "no particles; give at least one"));
+        }
         if let Some(l) = &ps.lattice {
-            if !(l.radius_min > 0.0 && l.radius_max >= l.radius_min) {
-                return Err(self.err(
-                    "particles.lattice.radius_min",
-                    l.radius_min,
-                    "radii must be positive with radius_min <= radius_max",
-                ));
-            }
-            if l.spacing < 2.0 {
-                return Err(self.err("particles.lattice.spacing", l.spacing, "spacing below 2 radius_max would overlap"));
+            self.validate_lattice(l)?;
+        }
+        Ok(())
+    }
+
+    fn validate_lattice(&self, l: &LatticeSection) -> Result<(), TalusError> {
+        if l.count == 0 {
+            return Err(self.err("particles.lattice.count", 0, "no particles; give at least one"));
+        }
+        if !(l.radius_min > 0.0 && l.radius_max >= l.radius_min && l.radius_max.is_finite()) {
+            return Err(self.err(
+                "particles.lattice.radius_min",
+                l.radius_min,
+                "radii must be positive with radius_min <= radius_max",
+            ));
+        }
+        if !(l.spacing >= 2.0 && l.spacing.is_finite()) {
+            return Err(self.err("particles.lattice.spacing", l.spacing, "spacing below 2 radius_max would overlap"));
+        }
+        if l.lo.iter().chain(&l.hi_xy).any(|x| !x.is_finite()) {
+            return Err(self.err(
+                "particles.lattice",
+                format!("lo {:?} hi_xy {:?}", l.lo, l.hi_xy),
+                "every corner coordinate must be a finite number (m)",
+            ));
+        }
+        if !(l.hi_xy[0] > l.lo[0] && l.hi_xy[1] > l.lo[1]) {
+            return Err(self.err(
+                "particles.lattice.hi_xy",
+                format!("{:?}", l.hi_xy),
+                &format!("must lie above lo = {:?} in x and in y", l.lo),
+            ));
+        }
+        // the lattice grows upward in z from lo, nx x ny per layer (as generate::lattice_cloud)
+        let s = l.spacing * l.radius_max;
+        let nx = ((l.hi_xy[0] - l.lo[0]) / s).floor().max(1.0);
+        let ny = ((l.hi_xy[1] - l.lo[1]) / s).floor().max(1.0);
+        let layers = (l.count as f64 / (nx * ny)).ceil();
+        let top = l.lo[2] + layers * s;
+        let hi_z = self.simulation.domain.hi[2];
+        if top > hi_z {
+            let fit = ((hi_z - l.lo[2]) / s).floor().max(0.0) * nx * ny;
+            return Err(self.err(
+                "particles.lattice.count",
+                l.count,
+                &format!(
+                    "{nx} x {ny} particles per layer at spacing {s:.4e} m need {layers} layers, up to z = {top:.4e} m, above the top of the domain (simulation.domain.hi z = {hi_z}); at most {fit} fit"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn validate_wall(&self, w: &WallSection) -> Result<(), TalusError> {
+        let name = &w.name;
+        self.material_index(&w.material, &format!("wall.{name}.material"))?;
+        let shapes = w.plane.is_some() as u8
+            + w.stl.is_some() as u8
+            + w.disc.is_some() as u8
+            + w.segment.is_some() as u8
+            + w.boxed.is_some() as u8;
+        if shapes != 1 {
+            return Err(self.err(&format!("wall.{name}"), "", "give exactly one of plane, stl, disc, segment and box"));
+        }
+        let two_d = self.simulation.dimension == Dimension::Two;
+        if !two_d && (w.segment.is_some() || w.boxed.is_some()) {
+            let key = if w.segment.is_some() { "segment" } else { "box" };
+            return Err(self.err(&format!("wall.{name}.{key}"), "", "segments and boxes are 2D walls (simulation.dimension = \"2\"); in 3D use planes and STL meshes"));
+        }
+        if let Some(s) = &w.segment {
+            if s.from[2] != 0.0 || s.to[2] != 0.0 || s.from == s.to || s.from.iter().chain(&s.to).any(|x| !x.is_finite()) {
+                return Err(self.err(&format!("wall.{name}.segment"), format!("from {:?} to {:?}", s.from, s.to), "needs two distinct finite end points in z = 0"));
             }
         }
-        let mut names = std::collections::HashSet::new();
-        for (i, w) in self.walls.iter().enumerate() {
-            if !names.insert(w.name.clone()) {
-                return Err(self.err(&format!("wall[{i}].name"), &w.name, "wall names must be unique"));
+        if let Some(b) = &w.boxed {
+            if b.lo[2] != 0.0 || b.hi[2] != 0.0 || !(b.lo[0] < b.hi[0] && b.lo[1] < b.hi[1]) || b.lo.iter().chain(&b.hi).any(|x| !x.is_finite()) {
+                return Err(self.err(&format!("wall.{name}.box"), format!("lo {:?} hi {:?}", b.lo, b.hi), "needs finite corners in z = 0 with lo < hi in x and y"));
             }
-            self.material_index(&w.material, &format!("wall.{}.material", w.name))?;
-            let shapes = w.plane.is_some() as u8
-                + w.stl.is_some() as u8
-                + w.disc.is_some() as u8
-                + w.segment.is_some() as u8
-                + w.boxed.is_some() as u8;
-            if shapes != 1 {
-                return Err(self.err(&format!("wall.{}", w.name), "", "give exactly one of plane, stl, disc, segment and box"));
+        }
+        if let Some(d) = &w.disc {
+            if !(d.radius.is_finite() && d.radius > 0.0) {
+                return Err(self.err(&format!("wall.{name}.disc.radius"), d.radius, "must be a positive length (m)"));
             }
-            if self.simulation.dimension != Dimension::Two && (w.segment.is_some() || w.boxed.is_some()) {
-                let key = if w.segment.is_some() { "segment" } else { "box" };
-                return Err(self.err(&format!("wall.{}.{key}", w.name), "", "segments and boxes are 2D walls (simulation.dimension = \"2\"); in 3D use planes and STL meshes"));
+            if d.center.iter().any(|x| !x.is_finite()) {
+                return Err(self.err(&format!("wall.{name}.disc.center"), format!("{:?}", d.center), "every component must be a finite number (m)"));
             }
-            if let Some(s) = &w.segment {
-                if s.from[2] != 0.0 || s.to[2] != 0.0 || s.from == s.to || s.from.iter().chain(&s.to).any(|x| !x.is_finite()) {
-                    return Err(self.err(&format!("wall.{}.segment", w.name), format!("from {:?} to {:?}", s.from, s.to), "needs two distinct finite end points in z = 0"));
-                }
-            }
-            if let Some(b) = &w.boxed {
-                if b.lo[2] != 0.0 || b.hi[2] != 0.0 || !(b.lo[0] < b.hi[0] && b.lo[1] < b.hi[1]) || b.lo.iter().chain(&b.hi).any(|x| !x.is_finite()) {
-                    return Err(self.err(&format!("wall.{}.box", w.name), format!("lo {:?} hi {:?}", b.lo, b.hi), "needs finite corners in z = 0 with lo < hi in x and y"));
-                }
-            }
-            if let Some(d) = &w.disc {
-                if !(d.radius.is_finite() && d.radius > 0.0) {
-                    return Err(self.err(&format!("wall.{}.disc.radius", w.name), d.radius, "must be a positive length (m)"));
-                }
-            }
-            if self.simulation.dimension == Dimension::Two {
-                if let Some(p) = &w.plane {
-                    if p.normal[2] != 0.0 {
-                        return Err(self.err(&format!("wall.{}.plane.normal", w.name), format!("{:?}", p.normal), "in 2D a wall's normal lies in the x-y plane (z component 0)"));
-                    }
-                }
-                if w.stl.is_some() {
-                    return Err(self.err(&format!("wall.{}.stl", w.name), "", "STL meshes are 3D walls; in 2D use planes (lines) and discs"));
-                }
-                if w.velocity[2] != 0.0 {
-                    return Err(self.err(&format!("wall.{}.velocity", w.name), format!("{:?}", w.velocity), "in 2D a wall moves in the x-y plane (z component 0)"));
-                }
-            }
-            if let Some(t) = w.remove_at {
-                if !(t.is_finite() && t >= 0.0) {
-                    return Err(self.err(&format!("wall.{}.remove_at", w.name), t, "must be a time >= 0 (s)"));
-                }
-            }
+        }
+        if w.velocity.iter().any(|v| !v.is_finite()) {
+            return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "every component must be a finite number (m/s)"));
+        }
+        if two_d {
             if let Some(p) = &w.plane {
-                let n = (p.normal[0].powi(2) + p.normal[1].powi(2) + p.normal[2].powi(2)).sqrt();
-                if !(n > 0.0 && n.is_finite()) {
-                    return Err(self.err(&format!("wall.{}.plane.normal", w.name), format!("{:?}", p.normal), "the normal must be a non-zero vector"));
+                if p.normal[2] != 0.0 {
+                    return Err(self.err(&format!("wall.{name}.plane.normal"), format!("{:?}", p.normal), "in 2D a wall's normal lies in the x-y plane (z component 0)"));
                 }
             }
+            if w.stl.is_some() {
+                return Err(self.err(&format!("wall.{name}.stl"), "", "STL meshes are 3D walls; in 2D use planes (lines) and discs"));
+            }
+            if w.velocity[2] != 0.0 {
+                return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "in 2D a wall moves in the x-y plane (z component 0)"));
+            }
         }
+        if let Some(t) = w.remove_at {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(self.err(&format!("wall.{name}.remove_at"), t, "must be a time >= 0 (s)"));
+            }
+        }
+        if let Some(p) = &w.plane {
+            let n = (p.normal[0].powi(2) + p.normal[1].powi(2) + p.normal[2].powi(2)).sqrt();
+            if !(n > 0.0 && n.is_finite()) {
+                return Err(self.err(&format!("wall.{name}.plane.normal"), format!("{:?}", p.normal), "the normal must be a non-zero vector"));
+            }
+            if p.point.iter().any(|x| !x.is_finite()) {
+                return Err(self.err(&format!("wall.{name}.plane.point"), format!("{:?}", p.point), "every component must be a finite number (m)"));
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_phases(&self) -> Result<(), TalusError> {
         if self.phases.is_empty() {
             return Err(self.err("phase", "[]", "at least one [[phase]] is needed"));
         }
-        for ph in &self.phases {
+        let mut names = std::collections::HashSet::new();
+        for (i, ph) in self.phases.iter().enumerate() {
+            self.check_name(&format!("phase[{i}].name"), &ph.name)?;
+            if !names.insert(ph.name.as_str()) {
+                return Err(self.err(&format!("phase[{i}].name"), format!("\"{}\"", ph.name), "phase names must be unique"));
+            }
             if !(ph.duration.is_finite() && ph.duration > 0.0) {
                 return Err(self.err(&format!("phase.{}.duration", ph.name), ph.duration, "must be a positive time (s)"));
+            }
+            if let Some(f) = ph.kinetic_energy_fraction {
+                if !(f.is_finite() && f >= 0.0) {
+                    return Err(self.err(&format!("phase.{}.kinetic_energy_fraction", ph.name), f, "must be a fraction >= 0"));
+                }
+            }
+            if !(ph.settle_extra.is_finite() && ph.settle_extra >= 0.0) {
+                return Err(self.err(&format!("phase.{}.settle_extra", ph.name), ph.settle_extra, "must be a time >= 0 (s)"));
             }
             for w in &ph.remove_walls_at_end {
                 if !self.walls.iter().any(|x| &x.name == w) {
@@ -577,8 +715,26 @@ impl Case {
                 }
             }
         }
-        if !(self.output.interval > 0.0) {
-            return Err(self.err("output.interval", self.output.interval, "must be a positive time (s)"));
+        Ok(())
+    }
+
+    fn validate_output(&self) -> Result<(), TalusError> {
+        let o = &self.output;
+        for (key, v) in [
+            ("output.interval", Some(o.interval)),
+            ("output.snapshot_interval", o.snapshot_interval),
+            ("output.checkpoint_interval", o.checkpoint_interval),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(self.err(key, v, "must be a positive time (s)"));
+                }
+            }
+        }
+        if let Some(z) = o.mass_below_z {
+            if !z.is_finite() {
+                return Err(self.err("output.mass_below_z", z, "must be a finite height (m)"));
+            }
         }
         Ok(())
     }

@@ -19,10 +19,11 @@ pub fn lattice_cloud(l: &LatticeSection) -> Vec<ParticleInit> {
     let s = l.spacing * l.radius_max;
     let nx = (((l.hi_xy[0] - l.lo[0]) / s).floor() as usize).max(1);
     let ny = (((l.hi_xy[1] - l.lo[1]) / s).floor() as usize).max(1);
+    let layer = nx.saturating_mul(ny);
     let mut out = Vec::with_capacity(l.count);
     let mut k = 0usize;
     while out.len() < l.count {
-        let (iz, rem) = (k / (nx * ny), k % (nx * ny));
+        let (iz, rem) = (k / layer, k % layer);
         let (iy, ix) = (rem / nx, rem % nx);
         k += 1;
         let r = l.radius_min + (l.radius_max - l.radius_min) * rng.random::<f64>();
@@ -60,12 +61,29 @@ pub fn read_csv(path: &Path) -> Result<Vec<ParticleInit>, TalusError> {
     if let Some(h) = headers.iter().find(|h| !known.contains(h)) {
         return Err(TalusError::Input(format!("{name}, line 1: unknown column `{h}` (known: {})", known.join(","))));
     }
-    let opt = |a: &str, b: &str, c: &str| match (col(a), col(b), col(c)) {
-        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
-        _ => None,
+    if let Some((k, h)) = headers.iter().enumerate().find(|(k, h)| headers.iter().take(*k).any(|x| x == *h)) {
+        return Err(TalusError::Input(format!("{name}, line 1: column `{h}` appears twice (column {})", k + 1)));
+    }
+    // velocity and spin: all three components or none
+    let opt = |cols: [&str; 3]| -> Result<Option<[usize; 3]>, TalusError> {
+        match cols.map(col) {
+            [Some(x), Some(y), Some(z)] => Ok(Some([x, y, z])),
+            [None, None, None] => Ok(None),
+            found => {
+                let pick = |want: bool| -> Vec<&str> {
+                    cols.iter().zip(found).filter(|(_, f)| f.is_some() == want).map(|(c, _)| *c).collect()
+                };
+                Err(TalusError::Input(format!(
+                    "{name}, line 1: the header has `{}` but not `{}`: give all of {} or none",
+                    pick(true).join("`, `"),
+                    pick(false).join("`, `"),
+                    cols.join(",")
+                )))
+            }
+        }
     };
-    let vcols = opt("vx", "vy", "vz");
-    let wcols = opt("wx", "wy", "wz");
+    let vcols = opt(["vx", "vy", "vz"])?;
+    let wcols = opt(["wx", "wy", "wz"])?;
     let mut out = Vec::new();
     let mut seen = std::collections::HashSet::new();
     for rec in rdr.records() {

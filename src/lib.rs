@@ -4,6 +4,7 @@
 pub mod analysis;
 pub mod case;
 pub mod checkpoint;
+pub mod checks;
 pub mod clump;
 pub mod contact;
 pub mod dim;

@@ -26,8 +26,8 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
         /// Stop after N steps (benchmarks, regression checks).
-        #[arg(long)]
-        steps: Option<u64>,
+        #[arg(long, value_name = "N", allow_negative_numbers = true)]
+        steps: Option<String>,
         /// Continue from a checkpoint written by an earlier run of the same case.
         #[arg(long)]
         restart: Option<PathBuf>,
@@ -79,13 +79,18 @@ fn main() -> ExitCode {
         Err(e) => {
             // errors are collective (every rank has the same message): rank 0 prints
             // it at once; the others wait a moment before exiting (mpirun ends the job
-            // when the first process fails, which must not cut rank 0 short) and print
-            // theirs only if they are still running, i.e. if rank 0 did not fail
+            // when the first process fails, which must not cut rank 0 short). Input
+            // errors come from checks every rank makes on the same input (the one
+            // machine-dependent check, memory, is agreed on collectively), so rank 0
+            // has the same one: only rank 0 prints it. Other errors are printed by
+            // the other ranks too if they are still running, i.e. if rank 0 did not fail
             if rank == 0 {
                 eprintln!("talus: error: {e}");
             } else {
                 std::thread::sleep(std::time::Duration::from_millis(500));
-                eprintln!("talus: error (rank {rank} of {size}): {e}");
+                if !matches!(e, TalusError::Input(_)) {
+                    eprintln!("talus: error (rank {rank} of {size}): {e}");
+                }
             }
             ExitCode::FAILURE
         }
@@ -96,6 +101,13 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
     match cli.cmd {
         Cmd::Run { case, out, steps, restart, quiet, balance, sets } => {
             let root = comm.is_root();
+            let steps = steps
+                .map(|s| {
+                    s.parse::<u64>().map_err(|_| {
+                        TalusError::Input(format!("--steps {s}: must be a whole number of steps, 0 or more"))
+                    })
+                })
+                .transpose()?;
             let mut c = Case::load_with(&case, &sets)?;
             if let Some(b) = balance {
                 c.parallel.balance = serde_json::from_value(serde_json::Value::String(b.clone())).map_err(|_| {

@@ -11,6 +11,7 @@
 
 use crate::analysis::Analysis;
 use crate::case::{Case, ModelName, WallContactPoint};
+use crate::checks;
 use crate::clump::Clumps;
 use crate::contact::hertz::{Hertz, HertzDamping};
 use crate::contact::hooke::Hooke;
@@ -102,7 +103,10 @@ impl Simulation {
         let pmat = case.material_index(&case.particles.material, "particles.material")?;
         let mat = &case.materials[pmat as usize];
 
-        // particles
+        // particles (a lattice's memory is checked before it is made, a list's or CSV's once read)
+        if let Some(l) = &case.particles.lattice {
+            checks::memory(&case, l.count, &comm)?;
+        }
         let inits = if let Some(l) = &case.particles.lattice {
             generate::lattice_cloud(l)
         } else if let Some(f) = &case.particles.csv {
@@ -139,6 +143,9 @@ impl Simulation {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
+        if case.particles.lattice.is_none() {
+            checks::memory(&case, inits.len(), &comm)?;
+        }
         if case.simulation.dimension == Dimension::Two {
             // 2D (as LIGGGHTS `dimension 2`): spheres moving in the x-y plane, spinning about z
             if let Some(i) = inits.iter().find(|i| i.pos.z != 0.0 || i.vel.z != 0.0 || i.omega.x != 0.0 || i.omega.y != 0.0) {
@@ -206,6 +213,7 @@ impl Simulation {
                 100.0 * dt / tr
             )));
         }
+        checks::contact_period(&case, &p, dt)?;
 
         // walls
         let mut walls = Vec::new();
@@ -313,6 +321,7 @@ impl Simulation {
                 )));
             }
         }
+        checks::wall_overlaps(&case, &p, &walls)?;
         // clumps (dumbbells)
         let mut clumps = Clumps::default();
         if !case.particles.clumps.is_empty() {

@@ -119,11 +119,11 @@ fn non_finite_input_is_refused() {
 #[test]
 fn particle_leaving_the_domain_stops_the_run_with_a_checkpoint() {
     let d = tempfile::tempdir().unwrap();
-    // no wall: the sphere flies out through the bottom of the domain
+    // the wall moved below the domain: the sphere flies out through the bottom of the domain
     let (ok, err) = run_edited(
         d.path(),
         "SC-wall.toml",
-        &[("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, -5.0]"), ("normal = [0.0, 0.0, 1.0]", "normal = [0.0, 0.0, -1.0]")],
+        &[("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, -5.0]"), ("point = [0.0, 0.0, 0.0]", "point = [0.0, 0.0, -1.0]")],
     );
     assert!(!ok);
     assert!(err.contains("particle id 1") && err.contains("left the domain") && err.contains("written to") && err.contains("failure_checkpoint.bin"), "{err}");

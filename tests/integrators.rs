@@ -153,6 +153,7 @@ restitution = 1.0
 friction = 0.4
 [particles]
 material = "m"
+overlap_tolerance = 0.01   # it starts resting on the floor: overlap m g / kn - A = 0.0016 R
 list = [ {{ id = 1, position = [0.0, 0.0, {z}], radius = {R} }} ]
 [[wall]]
 name = "floor"

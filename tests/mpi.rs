@@ -120,8 +120,8 @@ fn gear_integrator_is_bit_identical_across_ranks() {
 #[test]
 fn a_failing_rank_ends_the_job_naming_the_rank_and_the_particle_and_all_write_a_checkpoint() {
     let d = tempfile::tempdir().unwrap();
-    // no floor: the bed falls out through the bottom of the domain, on the lowest slab's rank
-    let case = write_case(d.path(), "shear-bed.toml", &[("normal = [0.0, 0.0, 1.0]", "normal = [0.0, 0.0, -1.0]")]);
+    // the floor moved below the domain: the bed falls out through the bottom of the domain, on the lowest slab's rank
+    let case = write_case(d.path(), "shear-bed.toml", &[("point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0]", "point = [0.0, 0.0, -1.0], normal = [0.0, 0.0, 1.0]")]);
     let out = d.path().join("out");
     let (ok, text, _) = talus(2, &case, &out, &[]);
     assert!(!ok, "the run should fail: {text}");
@@ -140,4 +140,25 @@ fn a_grid_that_does_not_match_the_ranks_is_refused() {
     let (ok, text, _) = talus(2, &case, &d.path().join("out"), &["--steps", "10"]);
     assert!(!ok);
     assert!(text.contains("parallel.grid = [1, 1, 3]") && text.contains("2 MPI ranks"), "{text}");
+}
+
+#[test]
+fn an_input_error_under_mpi_is_printed_once_by_rank_0() {
+    let d = tempfile::tempdir().unwrap();
+    let case = d.path().join("SC-wall.toml");
+    std::fs::write(&case, case_text("SC-wall.toml", &[("poisson_ratio = 0.3", "poisson_ratio = 0.7")])).unwrap();
+    let (ok, text, _) = talus(2, &case, &d.path().join("out"), &[]);
+    assert!(!ok, "{text}");
+    let msg = format!(
+        "talus: error: {}: materials.seed-soft.poisson_ratio = 0.7: Poisson's ratio must lie in [0, 0.5)\n",
+        case.display()
+    );
+    assert_eq!(text.matches(&msg).count(), 1, "{text}");
+    assert_eq!(text.matches("poisson_ratio").count(), 1, "{text}");
+    // a bad command line likewise, and an error found while building the simulation
+    let (ok, text, _) = talus(2, &case, &d.path().join("out"), &["--steps", "-5"]);
+    assert!(!ok && text.matches("talus: error: --steps -5: must be a whole number of steps, 0 or more\n").count() == 1, "{text}");
+    std::fs::write(&case, case_text("SC-wall.toml", &[("position = [0.0, 0.0, 0.0021]", "position = [0.0, 0.0, 0.0019]")])).unwrap();
+    let (ok, text, _) = talus(2, &case, &d.path().join("out"), &[]);
+    assert!(!ok && text.matches("overlaps wall \"plate\"").count() == 1, "{text}");
 }
