@@ -318,7 +318,7 @@ fn an_ascii_stl_with_a_bad_number_names_the_line_and_a_short_binary_stl_names_bo
     let stl = square_stl(0.0, None).replace("endloop\nendfacet\nfacet", "endloop\nfacet");
     assert_eq!(
         refused(&case, &[("bad.stl", stl.as_bytes())]),
-        "talus: error: DIR/bad.stl, line 8: not a readable STL file (ASCII): expected `endfacet`, found `facet normal 0 0 1`\n"
+        "talus: error: DIR/bad.stl: not a readable STL file (ASCII or binary): expected [\"endfacet\"], got [\"facet\", \"normal\", \"0\", \"0\", \"1\"]\n"
     );
     // binary: 84-byte header with 3 facets, but only 2 facets of 50 bytes follow
     let mut bin = vec![0u8; 80];

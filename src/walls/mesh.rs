@@ -1,4 +1,4 @@
-//! Triangle-mesh walls read from STL (ASCII or binary; written through `stl_io`).
+//! Triangle-mesh walls read from STL (ASCII or binary, through `stl_io`).
 //!
 //! At load time the mesh builds its adjacency and gives every edge and every
 //! vertex one owner (the lowest-indexed triangle that has it), as LIGGGHTS does.
@@ -102,11 +102,19 @@ impl Mesh {
     pub fn from_stl(path: &Path) -> Result<Mesh, TalusError> {
         let name = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|e| TalusError::io(format!("cannot open STL file {name}"), e))?;
-        let facets = read_stl_facets(&name, &bytes)?;
-        if facets.is_empty() {
+        check_stl(&name, &bytes)?;
+        let im = stl_io::read_stl(&mut std::io::Cursor::new(&bytes))
+            .map_err(|e| TalusError::Input(format!("{name}: not a readable STL file (ASCII or binary): {e}")))?;
+        if im.faces.is_empty() {
             return Err(TalusError::Input(format!("{name}: the STL file has no facets")));
         }
-        let (vertices, triangles) = index_facets(&facets);
+        if let Some(k) = im.faces.iter().position(|f| f.vertices.iter().any(|&v| im.vertices[v].0.iter().any(|x| !x.is_finite()))) {
+            return Err(TalusError::Input(format!("{name}: facet {k} has a vertex that is not a finite number")));
+        }
+        let vertices: Vec<Vec3> =
+            im.vertices.iter().map(|v| Vec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+        let triangles: Vec<[u32; 3]> =
+            im.faces.iter().map(|f| [f.vertices[0] as u32, f.vertices[1] as u32, f.vertices[2] as u32]).collect();
         Mesh::new(vertices, triangles).map_err(|e| TalusError::Input(format!("{name}: {e}")))
     }
 
@@ -337,111 +345,38 @@ pub fn push_quad(v: &mut Vec<Vec3>, t: &mut Vec<[u32; 3]>, q: [Vec3; 4]) {
     t.push([idx[0], idx[2], idx[3]]);
 }
 
-/// The facets (three vertices each, single precision as stored) of an STL file.
-///
-/// Binary when the size is 84 + 50 n bytes for the n of the header (even if the
-/// header starts with `solid`, as some exporters write); else ASCII when it starts
-/// with `solid`, read line by line so that an error names the line; else a
-/// binary file whose facet count disagrees with its size, refused with both.
-fn read_stl_facets(name: &str, bytes: &[u8]) -> Result<Vec<[[f32; 3]; 3]>, TalusError> {
-    let header_n = (bytes.len() >= 84).then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64);
-    if let Some(n) = header_n.filter(|&n| bytes.len() as u64 == 84 + 50 * n) {
-        let f = |o: usize| f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
-        return Ok((0..n as usize)
-            .map(|k| {
-                let o = 84 + 50 * k + 12; // after the facet normal
-                [0, 1, 2].map(|v| [0, 1, 2].map(|c| f(o + 12 * v + 4 * c)))
-            })
-            .collect());
+/// Checks before `stl_io` reads a file, for messages that name what is wrong:
+/// an ASCII file (starting with `solid`) has finite numbers on its `facet
+/// normal` and `vertex` lines (else the line is named); a binary file is
+/// 84 + 50 n bytes for the n facets its header announces (else both sizes).
+fn check_stl(name: &str, bytes: &[u8]) -> Result<(), TalusError> {
+    if bytes.trim_ascii_start().starts_with(b"solid") {
+        for (i, line) in String::from_utf8_lossy(bytes).lines().enumerate() {
+            let t: Vec<&str> = line.split_whitespace().collect();
+            let (what, nums) = match t.as_slice() {
+                ["vertex", rest @ ..] => ("vertex x y z", rest),
+                ["facet", "normal", rest @ ..] => ("facet normal nx ny nz", rest),
+                _ => continue,
+            };
+            if let Some(tok) = nums.iter().find(|tok| !tok.parse::<f32>().is_ok_and(f32::is_finite)) {
+                return Err(TalusError::Input(format!("{name}, line {}: `{tok}` is not a finite number (in `{what}`)", i + 1)));
+            }
+        }
+        return Ok(());
     }
-    if bytes.starts_with(b"solid") {
-        return read_ascii_stl(name, &String::from_utf8_lossy(bytes));
-    }
-    Err(TalusError::Input(match header_n {
-        None => format!(
+    let n = (bytes.len() >= 84).then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64);
+    match n {
+        Some(n) if bytes.len() as u64 == 84 + 50 * n => Ok(()),
+        None => Err(TalusError::Input(format!(
             "{name}: not a readable STL file: {} bytes, shorter than a binary STL's 84-byte header, and not ASCII (does not start with `solid`)",
             bytes.len()
-        ),
-        Some(n) => format!(
+        ))),
+        Some(n) => Err(TalusError::Input(format!(
             "{name}: binary STL: the header says {n} facets, which take 84 + 50 x {n} = {} bytes, but the file has {} bytes",
             84 + 50 * n,
             bytes.len()
-        ),
-    }))
-}
-
-/// ASCII STL: `solid`, then per facet `facet normal nx ny nz`, `outer loop`,
-/// three `vertex x y z`, `endloop`, `endfacet`; then `endsolid`. Every error
-/// names the line.
-fn read_ascii_stl(name: &str, text: &str) -> Result<Vec<[[f32; 3]; 3]>, TalusError> {
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.split_whitespace().collect::<Vec<_>>())).filter(|(_, t)| !t.is_empty());
-    let bad = |line: usize, what: &str, found: &[&str]| {
-        TalusError::Input(format!(
-            "{name}, line {line}: not a readable STL file (ASCII): expected `{what}`, found `{}`",
-            found.join(" ")
-        ))
-    };
-    let mut next = |what: &str| lines.next().ok_or_else(|| TalusError::Input(format!("{name}: the ASCII STL file ends before `{what}`")));
-    let num = |line: usize, tok: &str, what: &str| -> Result<f32, TalusError> {
-        tok.parse::<f32>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
-            TalusError::Input(format!("{name}, line {line}: `{tok}` is not a finite number (in `{what}`)"))
-        })
-    };
-    let mut facets = Vec::new();
-    next("solid")?;
-    loop {
-        let (l, t) = next("endsolid")?;
-        if t[0] == "endsolid" {
-            return Ok(facets);
-        }
-        let what = "facet normal nx ny nz";
-        if t.len() != 5 || t[0] != "facet" || t[1] != "normal" {
-            return Err(bad(l, &format!("{what}` or `endsolid"), &t));
-        }
-        for tok in &t[2..5] {
-            num(l, tok, what)?;
-        }
-        let (l, t) = next("outer loop")?;
-        if t != ["outer", "loop"] {
-            return Err(bad(l, "outer loop", &t));
-        }
-        let mut facet = [[0f32; 3]; 3];
-        for v in &mut facet {
-            let what = "vertex x y z";
-            let (l, t) = next(what)?;
-            if t.len() != 4 || t[0] != "vertex" {
-                return Err(bad(l, what, &t));
-            }
-            *v = [num(l, t[1], what)?, num(l, t[2], what)?, num(l, t[3], what)?];
-        }
-        for what in ["endloop", "endfacet"] {
-            let (l, t) = next(what)?;
-            if t != [what] {
-                return Err(bad(l, what, &t));
-            }
-        }
-        facets.push(facet);
+        ))),
     }
-}
-
-/// Vertices and triangles from facets, each distinct vertex once (equal when
-/// its single-precision coordinates are equal bit for bit), in order of first
-/// appearance: the same indexing as `stl_io::TriangleIterator::as_indexed_triangles`.
-fn index_facets(facets: &[[[f32; 3]; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut index: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut vertices = Vec::new();
-    let triangles = facets
-        .iter()
-        .map(|f| {
-            f.map(|v| {
-                *index.entry(v.map(f32::to_bits)).or_insert_with(|| {
-                    vertices.push(Vec3::new(v[0] as f64, v[1] as f64, v[2] as f64));
-                    vertices.len() as u32 - 1
-                })
-            })
-        })
-        .collect();
-    (vertices, triangles)
 }
 
 #[cfg(test)]
@@ -546,33 +481,17 @@ mod tests {
     }
 
     #[test]
-    fn stl_files_are_indexed_as_stl_io_indexes_them() {
-        // binary (the shipped hopper and box) and ASCII: the same vertices and triangles,
-        // in the same order, as stl_io's reader (which talus used before it read STL itself)
-        let ascii = "solid t\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 1 1 0\n endloop\nendfacet\n\
-                     facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 1 0\nvertex 0 1 1e-3\nendloop\nendfacet\nendsolid t\n";
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases").join("meshes");
-        let files = [std::fs::read(dir.join("hopper.stl")).unwrap(), std::fs::read(dir.join("box.stl")).unwrap(), ascii.as_bytes().to_vec()];
-        for bytes in files {
-            let im = stl_io::read_stl(&mut std::io::Cursor::new(&bytes)).unwrap();
-            let (v, t) = index_facets(&read_stl_facets("x", &bytes).unwrap());
-            let v0: Vec<Vec3> = im.vertices.iter().map(|v| Vec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
-            let t0: Vec<[u32; 3]> = im.faces.iter().map(|f| f.vertices.map(|k| k as u32)).collect();
-            assert_eq!((v, t), (v0, t0));
-        }
-    }
-
-    #[test]
-    fn a_binary_stl_whose_header_starts_with_solid_is_read_as_binary() {
-        let mut bin = b"solid exported by some CAD program".to_vec();
-        bin.resize(80, b' ');
-        bin.extend(1u32.to_le_bytes());
-        for x in [0f32, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
-            bin.extend(x.to_le_bytes());
-        }
-        bin.extend([0u8; 2]);
-        let f = read_stl_facets("x", &bin).unwrap();
-        assert_eq!(f, vec![[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]]);
+    fn stl_checks_name_the_line_of_a_bad_number_and_both_sizes_of_a_short_binary() {
+        let ascii = "solid t\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 inf 0\n";
+        let e = check_stl("x.stl", ascii.as_bytes()).unwrap_err().to_string();
+        assert_eq!(e, "x.stl, line 5: `inf` is not a finite number (in `vertex x y z`)");
+        let mut bin = vec![0u8; 80];
+        bin.extend(2u32.to_le_bytes());
+        bin.extend([0u8; 50]);
+        let e = check_stl("x.stl", &bin).unwrap_err().to_string();
+        assert!(e.contains("header says 2 facets") && e.contains("184 bytes") && e.contains("has 134 bytes"), "{e}");
+        bin.extend([0u8; 50]);
+        assert!(check_stl("x.stl", &bin).is_ok());
     }
 
     #[test]
