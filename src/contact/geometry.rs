@@ -1,0 +1,211 @@
+//! The geometry stage (YADE's Ig2 functors and `ScGeom`): every contact, of two
+//! particles or of a particle and a wall feature, whatever the shapes, becomes
+//! one [`ContactGeom`]: the unit normal, the overlap, the contact point, the
+//! branch vectors from each body's centre to it and, where the shapes set it,
+//! the effective radius R*. The relative velocity at the contact and the torques
+//! r x F follow from it once, in [`ContactGeom::relative_velocity`] and
+//! [`ContactGeom::torques`], so the force sweep never asks which shapes touch.
+//!
+//! Where each shape's geometry lives:
+//! - sphere-sphere (discs in 2D): [`sphere_sphere`], here;
+//! - sphere-plane, -triangle (face, edge, vertex), -disc, -segment: the wall
+//!   reports a [`WallHit`] (`walls/`), [`WallHit::sphere_geometry`] makes the
+//!   geometry;
+//! - ellipse-ellipse (and ellipse-disc particle pairs): [`ellipse::pair_geometry`];
+//! - ellipse-wall: `Wall::ellipse_contact` reports the hit,
+//!   [`ellipse::wall_geometry`] makes the geometry.
+//!
+//! [`Shapes`] picks the right one for a pair or a wall contact.
+
+use super::ellipse::{self, Ellipse};
+use crate::dim::Vec3;
+use crate::particles::Particles;
+use crate::walls::{Wall, WallHit};
+
+/// Geometry of one contact of body i with body j (a particle or a wall).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactGeom {
+    /// Unit normal from j to i.
+    pub n: Vec3,
+    /// Overlap delta (m), positive in contact.
+    pub overlap: f64,
+    /// The point where the force acts (m): the torque on a wall about the
+    /// origin is taken about it.
+    pub point: Vec3,
+    /// From i's centre to the contact point (m).
+    pub branch_i: Vec3,
+    /// From j's centre to the contact point (m); `None` for a wall, which has
+    /// no centre and does not spin (its velocity is the same everywhere, and its
+    /// load is referred to the contact point).
+    pub branch_j: Option<Vec3>,
+    /// R* of this contact when the shapes set it (ellipses: from the radii of
+    /// curvature at the contact point); `None`: the pair's own R*, fixed for the
+    /// pair and computed once per pair at list build (spheres, discs).
+    pub r_eff: Option<f64>,
+    /// How velocities and torques are evaluated from the branch vectors.
+    pub lever: Lever,
+}
+
+/// How the relative velocity and the torques are evaluated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lever {
+    /// The contact point lies on the normal through both centres, at `arm_i`
+    /// from i and `arm_j` from j (spheres and discs, with each other and with
+    /// any wall feature): branch_i = -arm_i n, branch_j = arm_j n. Evaluated with
+    /// the scalar arms as LIGGGHTS's `surface_model_default.h` does,
+    /// v = (v_i - v_j) - (arm_i w_i + arm_j w_j) x n and torque -arm (n x F),
+    /// which is w x r and r x F rounded the reference code's way. `radius_i`,
+    /// `radius_j` (0 for a wall) are the full radii of YADE's shear kinematics.
+    AlongNormal { arm_i: f64, arm_j: f64, radius_i: f64, radius_j: f64 },
+    /// The contact point anywhere (ellipses): v = (v_i + w_i x b_i) - (v_j + w_j x b_j)
+    /// and torques b_i x F, -b_j x F with the branch vectors. The contact-point
+    /// velocity drives the shear spring whatever [`ShearKinematics`] says
+    /// (YADE's full radii have no meaning here).
+    ///
+    /// [`ShearKinematics`]: super::ShearKinematics
+    Branch,
+}
+
+/// Velocities of the two bodies of a contact: centres and spins (a wall: its
+/// velocity, zero spin).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    pub v_i: Vec3,
+    pub w_i: Vec3,
+    pub v_j: Vec3,
+    pub w_j: Vec3,
+}
+
+impl ContactGeom {
+    /// A contact whose point lies on the normal through the centre `x_i`, at
+    /// `arm_i` from i and `arm_j` from j (j a wall: `arm_j = radius_j = 0`,
+    /// `wall = true`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn along_normal(x_i: Vec3, n: Vec3, overlap: f64, arm_i: f64, arm_j: f64, radius_i: f64, radius_j: f64, wall: bool) -> Self {
+        let branch_i = -(n * arm_i);
+        ContactGeom {
+            n,
+            overlap,
+            // x_i + (-(n arm_i)) is x_i - n arm_i to the bit
+            point: x_i + branch_i,
+            branch_i,
+            branch_j: if wall { None } else { Some(n * arm_j) },
+            r_eff: None,
+            lever: Lever::AlongNormal { arm_i, arm_j, radius_i, radius_j },
+        }
+    }
+
+    /// Velocity of i's material point at the contact relative to j's.
+    #[inline(always)]
+    pub fn relative_velocity(&self, m: &Motion) -> Vec3 {
+        match self.lever {
+            Lever::AlongNormal { arm_i, arm_j, .. } => (m.v_i - m.v_j) - (m.w_i * arm_i + m.w_j * arm_j).cross(&self.n),
+            Lever::Branch => {
+                let vi = m.v_i + m.w_i.cross(&self.branch_i);
+                match self.branch_j {
+                    Some(bj) => vi - (m.v_j + m.w_j.cross(&bj)),
+                    None => vi - m.v_j,
+                }
+            }
+        }
+    }
+
+    /// The velocity whose tangential part drives the shear spring and dashpot:
+    /// `v_rel` itself, or YADE's full-radii variant for spheres (see
+    /// [`ShearKinematics`](super::ShearKinematics)).
+    #[inline(always)]
+    pub fn shear_velocity(&self, kinematics: super::ShearKinematics, m: &Motion, v_rel: Vec3) -> Vec3 {
+        match (self.lever, kinematics) {
+            (Lever::AlongNormal { radius_i, radius_j, .. }, super::ShearKinematics::FullRadii) => {
+                super::yade_shear_velocity(self.n, self.overlap, radius_i, radius_j, m.v_i, m.v_j, m.w_i, m.w_j)
+            }
+            _ => v_rel,
+        }
+    }
+
+    /// Torques on i and on j from the force f on i (-f acts on j). A wall's
+    /// torque is about the contact point: zero for a force alone.
+    #[inline(always)]
+    pub fn torques(&self, f: Vec3) -> (Vec3, Vec3) {
+        match self.lever {
+            Lever::AlongNormal { arm_i, arm_j, .. } => {
+                let nxf = self.n.cross(&f);
+                (-nxf * arm_i, -nxf * arm_j)
+            }
+            Lever::Branch => {
+                (self.branch_i.cross(&f), self.branch_j.map_or_else(Vec3::zeros, |bj| -bj.cross(&f)))
+            }
+        }
+    }
+}
+
+/// Sphere-sphere (disc-disc in 2D) contact: n from j to i, overlap
+/// r_i + r_j - |x_i - x_j|, the contact point in the middle of the overlap
+/// (arms r - delta/2, LIGGGHTS's `cr`).
+#[inline(always)]
+pub fn sphere_sphere(x_i: Vec3, r_i: f64, x_j: Vec3, r_j: f64) -> Option<ContactGeom> {
+    let d = x_i - x_j;
+    let rsum = r_i + r_j;
+    let dist2 = d.norm_squared();
+    if dist2 >= rsum * rsum {
+        return None;
+    }
+    let dist = dist2.sqrt();
+    let n = d * (1.0 / dist);
+    let overlap = rsum - dist;
+    Some(ContactGeom::along_normal(x_i, n, overlap, r_i - 0.5 * overlap, r_j - 0.5 * overlap, r_i, r_j, false))
+}
+
+/// The particles' shapes for one force sweep: spheres (discs) from position
+/// and radius, 2D ellipses with their orientation's sine and cosine computed
+/// once per sweep. It answers "geometry of this pair" and "geometry of this
+/// wall contact" for any shapes.
+#[derive(Clone, Debug, Default)]
+pub struct Shapes {
+    /// Every particle as an ellipse (a round one with a = b), only when the run has ellipses.
+    ellipses: Vec<Ellipse>,
+}
+
+impl Shapes {
+    pub fn new(p: &Particles) -> Self {
+        let ellipses = if p.ellipse.iter().any(|&e| e) { (0..p.len()).map(|i| p.ellipse_of(i)).collect() } else { Vec::new() };
+        Shapes { ellipses }
+    }
+
+    /// Geometry of the contact of particles a (i) and b (j), if they touch.
+    #[inline(always)]
+    pub fn pair(&self, p: &Particles, a: usize, b: usize) -> Option<ContactGeom> {
+        if !(p.ellipse[a] || p.ellipse[b]) {
+            return sphere_sphere(p.pos[a], p.radius[a], p.pos[b], p.radius[b]);
+        }
+        // an ellipse: bounding circles first (radius is the semi-major axis)
+        let rsum = p.radius[a] + p.radius[b];
+        if (p.pos[a] - p.pos[b]).norm_squared() >= rsum * rsum {
+            return None;
+        }
+        ellipse::pair_geometry(&self.ellipses[a], &self.ellipses[b])
+    }
+
+    /// Particle i's contact with one feature of a wall (none if the wall was removed).
+    #[inline(always)]
+    pub fn wall_hit(&self, p: &Particles, i: usize, wall: &Wall, feature: u32) -> Option<WallHit> {
+        match (wall.active, p.ellipse[i]) {
+            (false, _) => None,
+            (true, false) => wall.contact(feature, &p.pos[i], p.radius[i]),
+            (true, true) => wall.ellipse_contact(feature, &self.ellipses[i]),
+        }
+    }
+
+    /// Geometry of particle i's contact `hit` with `wall`; the force acts
+    /// `arm_overlap` of the overlap back from the particle's deepest point
+    /// (see [`ContactOptions::wall_arm_overlap`](super::conventions::ContactOptions)).
+    #[inline(always)]
+    pub fn wall(&self, p: &Particles, i: usize, wall: &Wall, hit: &WallHit, arm_overlap: f64) -> ContactGeom {
+        if p.ellipse[i] {
+            ellipse::wall_geometry(&self.ellipses[i], hit, arm_overlap, wall.curvature_radius())
+        } else {
+            hit.sphere_geometry(p.pos[i], p.radius[i], arm_overlap)
+        }
+    }
+}
