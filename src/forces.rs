@@ -73,16 +73,28 @@ fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut 
     if nl.law_constants.holds(law, nl.builds) {
         return;
     }
-    let pairs =
-        nl.pairs.iter().zip(&nl.pair_inertia).map(|(&(a, b), &pi)| law.pair(table.get(p.material[a as usize], p.material[b as usize]), pi)).collect();
-    let mut consts = Vec::with_capacity(nl.wall_feat.len());
-    for i in 0..nl.wall_start.len().saturating_sub(1) {
-        for k in nl.wall_start[i] as usize..nl.wall_start[i + 1] as usize {
-            let wall = &walls[nl.wall_feat[k].0 as usize];
-            consts.push(law.pair(table.get(p.material[i], wall.material), nl.wall_inertia[k]));
+    let pairs = constants(nl.pairs.len(), |k| {
+        let (a, b) = nl.pairs[k];
+        law.pair(table.get(p.material[a as usize], p.material[b as usize]), nl.pair_inertia[k])
+    });
+    let mut i = 0; // the particle whose candidates hold k
+    let consts = constants(nl.wall_feat.len(), |k| {
+        while nl.wall_start[i + 1] as usize <= k {
+            i += 1;
         }
-    }
+        law.pair(table.get(p.material[i], walls[nl.wall_feat[k].0 as usize].material), nl.wall_inertia[k])
+    });
     nl.law_constants.set(law, nl.builds, pairs, consts);
+}
+
+/// Constants 0..len made by `f`, in order. A law without any (a zero-sized
+/// type, which carries nothing) needs no pass over the list: one stands for all.
+fn constants<T: Copy>(len: usize, mut f: impl FnMut(usize) -> T) -> Vec<T> {
+    if std::mem::size_of::<T>() == 0 && len > 0 {
+        vec![f(0); len]
+    } else {
+        (0..len).map(f).collect()
+    }
 }
 
 /// The shared tail's law part: where the geometry sets R* (ellipses), the
@@ -100,13 +112,14 @@ fn contact<L: ContactLaw>(
     hist: &mut Vec3,
     dt: f64,
 ) -> ContactForce {
-    match g.r_eff {
-        None => law.contact(o, pm, pi, pair, g, m, hist, dt),
+    let (pi, pair) = match g.r_eff {
+        None => (pi, *pair),
         Some(r_eff) => {
             let pi = PairInertia { r_eff, ..pi };
-            law.contact(o, pm, pi, &law.pair(pm, pi), g, m, hist, dt)
+            (pi, law.pair(pm, pi))
         }
-    }
+    };
+    law.contact(o, pm, pi, &pair, g, m, hist, dt)
 }
 
 fn sweep<L: ContactLaw>(
@@ -206,7 +219,7 @@ fn wall_forces<L: ContactLaw>(
             p.force[i] += c.force;
             p.torque[i] += c.torque_i;
             // the force acts on the wall at the same point as on the particle
-            wall.add_load(g.point, &c);
+            wall.add_load(g.point(p.pos[i]), &c);
         }
     }
     for w in walls.iter_mut() {

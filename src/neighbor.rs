@@ -275,6 +275,9 @@ impl NeighborList {
                 }
                 feats.clear();
                 wall.candidates(&p.pos[i], p.radius[i], self.skin, &mut feats);
+                if feats.is_empty() {
+                    continue;
+                }
                 let pi = match wall.curvature_radius() {
                     None => PairInertia::wall(p.radius[i], p.mass[i]),
                     Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),

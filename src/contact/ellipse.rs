@@ -280,11 +280,8 @@ pub fn pair_geometry(ei: &Ellipse, ej: &Ellipse) -> Option<ContactGeom> {
         ContactGeom {
             n,
             overlap: ec.overlap,
-            point: ec.point,
-            branch_i: ec.point - ei.c,
-            branch_j: Some(ec.point - ej.c),
             r_eff: Some(rho_i * rho_j / (rho_i + rho_j)),
-            lever: Lever::Branch,
+            lever: Lever::Branch { point: ec.point, branch_i: ec.point - ei.c, branch_j: Some(ec.point - ej.c) },
         }
     })
 }
@@ -301,14 +298,11 @@ pub fn wall_geometry(e: &Ellipse, hit: &WallHit, arm_overlap: f64, wall_curvatur
     ContactGeom {
         n: hit.n,
         overlap: hit.overlap,
-        point,
-        branch_i: point - e.c,
-        branch_j: None,
         r_eff: Some(match wall_curvature {
             None => rho,
             Some(rw) => rho * rw / (rho + rw),
         }),
-        lever: Lever::Branch,
+        lever: Lever::Branch { point, branch_i: point - e.c, branch_j: None },
     }
 }
 

@@ -77,7 +77,8 @@ impl KeyError {
 
 /// Effective radius and mass of a pair: R* = R_i R_j / (R_i + R_j), m* likewise,
 /// and sqrt(m*). A wall has infinite radius and mass: R* = R_i, m* = m_i. Fixed
-/// for a pair, so the neighbour list computes it once per pair at each build.
+/// for a pair, so the neighbour list computes it once per pair and per wall
+/// candidate at each build (an ellipse's contact replaces R* by its own).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PairInertia {
     pub r_eff: f64,
@@ -260,8 +261,7 @@ pub fn evaluate<L: ContactLaw>(
     hist: &mut Vec3,
     dt: f64,
 ) -> ContactForce {
-    let v_rel = g.relative_velocity(m);
-    let v_shear = g.shear_velocity(o.tang.kinematics, m, v_rel);
+    let (v_rel, v_shear) = g.velocities(o.tang.kinematics, m);
     let c = law.normal(pm, pi, pair, g.overlap);
     let vn = v_rel.dot(&g.n); // > 0 separating
     let mut f_n = c.f_elastic - c.gamma_n * vn;

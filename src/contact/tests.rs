@@ -27,9 +27,13 @@ fn pm(e: f64, mu: f64) -> PairMaterial {
 const TANG: TangentialOptions =
     TangentialOptions { history: TangentialHistory::Total, cap: FrictionCap::Total, kinematics: ShearKinematics::ContactPoint };
 
-/// Two spheres with arms `arm_i`, `arm_j` along n (j a wall when `arm_j` is 0).
+/// Two spheres with arms `arm_i`, `arm_j` along n (a sphere on a wall when `arm_j` is 0).
 fn along(n: Vec3, overlap: f64, arm_i: f64, arm_j: f64) -> ContactGeom {
-    ContactGeom::along_normal(Vec3::zeros(), n, overlap, arm_i, arm_j, arm_i, arm_j, arm_j == 0.0)
+    if arm_j == 0.0 {
+        ContactGeom::sphere_wall(n, overlap, arm_i, arm_i)
+    } else {
+        ContactGeom::spheres(n, overlap, [arm_i, arm_j], [arm_i, arm_j])
+    }
 }
 
 fn geom(overlap: f64) -> ContactGeom {
@@ -162,11 +166,11 @@ proptest! {
                                             w in prop::array::uniform6(-50.0..50.0f64), f in prop::array::uniform3(-1.0..1.0f64)) {
         let n = unit(a, b);
         let g = along(n, 1e-5, ai, aj);
-        let gb = ContactGeom { lever: Lever::Branch, ..g };
-        prop_assert_eq!(g.branch_i, -n * ai);
-        prop_assert_eq!(g.branch_j, Some(n * aj));
+        let gb = ContactGeom { lever: Lever::Branch { point: Vec3::zeros(), branch_i: g.branch_i(), branch_j: g.branch_j() }, ..g };
+        prop_assert_eq!(g.branch_i(), -n * ai);
+        prop_assert_eq!(g.branch_j(), Some(n * aj));
         let m = Motion { v_i: Vec3::new(0.1, -0.2, 0.3), w_i: Vec3::new(w[0], w[1], w[2]), v_j: Vec3::zeros(), w_j: Vec3::new(w[3], w[4], w[5]) };
-        let (v, vb) = (g.relative_velocity(&m), gb.relative_velocity(&m));
+        let ((v, _), (vb, _)) = (g.velocities(ShearKinematics::ContactPoint, &m), gb.velocities(ShearKinematics::ContactPoint, &m));
         prop_assert!((v - vb).norm() <= 1e-14 * (1.0 + vb.norm()));
         let f = Vec3::new(f[0], f[1], f[2]);
         let ((ti, tj), (tbi, tbj)) = (g.torques(f), gb.torques(f));
@@ -180,10 +184,13 @@ proptest! {
                                                       f in prop::array::uniform3(-1.0..1.0f64)) {
         let n = unit(a, b);
         let hit = crate::walls::WallHit { n, overlap: d, point: n * 0.001, feature: 0 };
-        let g = hit.sphere_geometry(n * (0.003 - d), 0.003, 0.5);
-        prop_assert_eq!(g.branch_j, None);
+        let g = hit.sphere_geometry(0.003, 0.5);
+        prop_assert_eq!(g.branch_j(), None);
+        // the force acts at the middle of the overlap
+        let x = n * (0.003 - d);
+        prop_assert!((g.point(x) + n * (0.5 * d)).norm() <= 1e-15);
         prop_assert!(g.torques(Vec3::new(f[0], f[1], f[2])).1.norm() == 0.0);
-        let gb = ContactGeom { lever: Lever::Branch, ..g };
+        let gb = ContactGeom { lever: Lever::Branch { point: g.point(x), branch_i: g.branch_i(), branch_j: None }, ..g };
         prop_assert!(gb.torques(Vec3::new(f[0], f[1], f[2])).1 == Vec3::zeros());
     }
 }

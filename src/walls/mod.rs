@@ -25,13 +25,13 @@ pub struct WallHit {
 }
 
 impl WallHit {
-    /// Contact geometry of a sphere (centre x, radius r) from its hit: the
-    /// force acts on the normal through the centre, `arm_overlap` of the overlap
-    /// back from the sphere's deepest point (arm r - arm_overlap delta); R* is
-    /// the pair's own (the sphere's radius, in series with a curved wall's).
+    /// Contact geometry of a sphere of radius r from its hit: the force acts
+    /// on the normal through the centre, `arm_overlap` of the overlap back from
+    /// the sphere's deepest point (arm r - arm_overlap delta); R* is the pair's
+    /// own (the sphere's radius, in series with a curved wall's).
     #[inline(always)]
-    pub fn sphere_geometry(&self, x: Vec3, r: f64, arm_overlap: f64) -> ContactGeom {
-        ContactGeom::along_normal(x, self.n, self.overlap, r - arm_overlap * self.overlap, 0.0, r, 0.0, true)
+    pub fn sphere_geometry(&self, r: f64, arm_overlap: f64) -> ContactGeom {
+        ContactGeom::sphere_wall(self.n, self.overlap, r - arm_overlap * self.overlap, r)
     }
 }
 
@@ -260,7 +260,12 @@ impl Wall {
         for k in 0..3 {
             self.load[k] -= to_fixed(c.force[k]);
             self.load[3 + k] -= to_fixed(t[k]);
-            self.load[3 + k] += to_fixed(c.torque_j[k]);
+        }
+        // (+-0 for a force alone: adding it would add the integer 0)
+        if c.torque_j != Vec3::zeros() {
+            for k in 0..3 {
+                self.load[3 + k] += to_fixed(c.torque_j[k]);
+            }
         }
     }
 
