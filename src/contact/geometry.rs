@@ -1,10 +1,12 @@
 //! The geometry stage (YADE's Ig2 functors and `ScGeom`): every contact, of two
 //! particles or of a particle and a wall feature, whatever the shapes, becomes
-//! one [`ContactGeom`]: the unit normal, the overlap, the contact point, the
-//! branch vectors from each body's centre to it and, where the shapes set it,
-//! the effective radius R*. The relative velocity at the contact and the torques
-//! r x F follow from it once, in [`ContactGeom::velocities`] and
-//! [`ContactGeom::torques`], so the force sweep never asks which shapes touch.
+//! one [`ContactGeom`]: the unit normal, the overlap, the contact point and the
+//! branch vectors from each body's centre to it ([`Lever`]: stored for
+//! ellipses, derived from the scalar arms along the normal for spheres) and,
+//! where the shapes set it, the effective radius R*. The relative velocity at
+//! the contact and the torques r x F follow from it once, in
+//! [`ContactGeom::velocities`] and [`ContactGeom::torques`], so the force sweep
+//! never asks which shapes touch.
 //!
 //! Where each shape's geometry lives:
 //! - sphere-sphere (discs in 2D): [`sphere_sphere`], here;
@@ -161,7 +163,8 @@ impl ContactGeom {
 
 /// Sphere-sphere (disc-disc in 2D) contact: n from j to i, overlap
 /// r_i + r_j - |x_i - x_j|, the contact point in the middle of the overlap
-/// (arms r - delta/2, LIGGGHTS's `cr`).
+/// (arms r - delta/2, LIGGGHTS's `cr`). ([`Shapes::pair`] makes the same
+/// geometry after its own bounding-sphere test.)
 #[inline(always)]
 pub fn sphere_sphere(x_i: Vec3, r_i: f64, x_j: Vec3, r_j: f64) -> Option<ContactGeom> {
     let d = x_i - x_j;

@@ -158,6 +158,18 @@ fn hooke_derives_its_coefficients_once_per_pair_to_the_bit() {
     assert_eq!(c.f_elastic, kn * 1e-5);
 }
 
+#[test]
+fn two_spheres_touch_in_the_middle_of_their_overlap() {
+    let (xi, xj) = (Vec3::new(0.0, 0.0, 0.0035), Vec3::zeros());
+    let g = geometry::sphere_sphere(xi, 0.002, xj, 0.0025).unwrap();
+    assert_eq!((g.n, g.r_eff), (Vec3::z(), None));
+    assert_relative_eq!(g.overlap, 0.001, max_relative = 1e-12);
+    // arms r - delta/2: the point is 1.5 mm from i's centre, 2 mm from j's
+    assert_relative_eq!(g.point(xi).z, 0.002, max_relative = 1e-12);
+    assert_relative_eq!(g.branch_j().unwrap().z, 0.002, max_relative = 1e-12);
+    assert_eq!(geometry::sphere_sphere(xi, 0.001, xj, 0.0025), None);
+}
+
 proptest! {
     /// The scalar arms along n (spheres) and the branch vectors (any shape) are
     /// the same kinematics: w x r and r x F with r = -arm_i n and arm_j n.
