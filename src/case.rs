@@ -75,7 +75,7 @@ pub enum ModelName {
     Hertz,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSection {
     pub model: ModelName,
@@ -519,39 +519,8 @@ impl Case {
     }
 
     fn validate_contact(&self) -> Result<(), TalusError> {
-        let c = &self.contact;
-        match c.model {
-            ModelName::Hooke => match (&c.stiffness, c.characteristic_velocity) {
-                (Some(h), None) => {
-                    for (k, v) in [("kn", h.kn), ("kt", h.kt), ("gamma_n", h.gamma_n), ("gamma_t", h.gamma_t)] {
-                        if !(v.is_finite() && v >= 0.0) || (k == "kn" && v == 0.0) {
-                            return Err(self.err(&format!("contact.stiffness.{k}"), v, "must be a finite positive number"));
-                        }
-                    }
-                }
-                (None, Some(v)) if v > 0.0 && v.is_finite() => {}
-                (None, Some(v)) => {
-                    return Err(self.err("contact.characteristic_velocity", v, "must be a positive speed (m/s)"));
-                }
-                _ => {
-                    return Err(self.err(
-                        "contact.model",
-                        "\"hooke\"",
-                        "give exactly one of contact.stiffness (kn, kt, gamma_n, gamma_t) and contact.characteristic_velocity",
-                    ));
-                }
-            },
-            ModelName::Hertz => {
-                if c.stiffness.is_some() || c.characteristic_velocity.is_some() {
-                    return Err(self.err(
-                        "contact.model",
-                        "\"hertz\"",
-                        "contact.stiffness and contact.characteristic_velocity belong to the hooke model",
-                    ));
-                }
-            }
-        }
-        Ok(())
+        // the law checks its own keys
+        crate::contact::check_law(&self.contact).map_err(|e| self.err(&e.key, e.value, &e.why))
     }
 
     fn validate_particles(&self) -> Result<(), TalusError> {

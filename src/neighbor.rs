@@ -7,6 +7,7 @@
 //! partners' global ids, whatever the local storage order or the rank: the
 //! foundation of rank-count-invariant results.
 
+use crate::contact::{ContactLaw, PairInertia};
 use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Particles;
@@ -71,12 +72,19 @@ pub struct NeighborList {
     pub pairs: Vec<(u32, u32)>,
     pub pair_hist: Vec<Vec3>,
     /// R*, m*, sqrt(m*) of each pair (fixed for a pair; computed at build).
-    pub pair_inertia: Vec<crate::contact::PairInertia>,
+    pub pair_inertia: Vec<PairInertia>,
     /// Particle -> range in `wall_feat`.
     pub wall_start: Vec<u32>,
     /// (wall index, feature index).
     pub wall_feat: Vec<(u16, u32)>,
     pub wall_hist: Vec<Vec3>,
+    /// R*, m*, sqrt(m*) of each wall candidate (the particle against a flat or
+    /// curved wall; computed at build, like `pair_inertia`).
+    #[serde(skip)]
+    pub wall_inertia: Vec<PairInertia>,
+    /// The law's constants of every pair and wall candidate (rebuilt with the list).
+    #[serde(skip)]
+    pub law_constants: LawConstants,
     /// Positions at the last build.
     pub x_ref: Vec<Vec3>,
     /// Largest distance any wall has moved since the last build (m).
@@ -249,7 +257,7 @@ impl NeighborList {
                 self.pairs.push((a as u32, b));
                 self.pair_hist.push(h);
                 let bi = b as usize;
-                self.pair_inertia.push(crate::contact::PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
+                self.pair_inertia.push(PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
             }
         }
 
@@ -257,6 +265,7 @@ impl NeighborList {
         self.wall_start.clear();
         self.wall_feat.clear();
         self.wall_hist.clear();
+        self.wall_inertia.clear();
         let mut feats = Vec::new();
         for i in 0..n_own {
             self.wall_start.push(self.wall_feat.len() as u32);
@@ -266,7 +275,15 @@ impl NeighborList {
                 }
                 feats.clear();
                 wall.candidates(&p.pos[i], p.radius[i], self.skin, &mut feats);
+                if feats.is_empty() {
+                    continue;
+                }
+                let pi = match wall.curvature_radius() {
+                    None => PairInertia::wall(p.radius[i], p.mass[i]),
+                    Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
+                };
                 for &f in &feats {
+                    self.wall_inertia.push(pi);
                     self.wall_feat.push((w as u16, f));
                     let key = (p.id[i], w as u16, f);
                     let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or_else(|_| Vec3::zeros());
@@ -279,6 +296,53 @@ impl NeighborList {
         self.x_ref.extend_from_slice(&p.pos[..n_own]);
         self.wall_moved = 0.0;
         self.builds += 1;
+    }
+}
+
+/// A law's constants ([`ContactLaw::Pair`]) for every pair and wall candidate
+/// of a list, in list order: filled by the first force sweep after each build
+/// (`forces`), typed by that sweep's law. One type-erased box per list, looked
+/// at once per sweep, never per pair. A clone starts empty and is filled again
+/// (the same numbers: the same expression of the same inputs).
+#[derive(Default)]
+pub struct LawConstants {
+    /// The list build they belong to (`NeighborList::builds`; 0: none yet).
+    build: u64,
+    data: Option<Box<dyn std::any::Any + Send + Sync>>,
+}
+
+struct Filled<L: ContactLaw> {
+    law: L,
+    pairs: Vec<L::Pair>,
+    walls: Vec<L::Pair>,
+}
+
+impl LawConstants {
+    /// Whether these are `law`'s constants for list build `build`.
+    pub fn holds<L: ContactLaw>(&self, law: L, build: u64) -> bool {
+        self.build == build && self.data.as_ref().and_then(|d| d.downcast_ref::<Filled<L>>()).is_some_and(|f| f.law == law)
+    }
+    /// Keep `law`'s constants for list build `build`: one per pair, one per wall candidate.
+    pub fn set<L: ContactLaw>(&mut self, law: L, build: u64, pairs: Vec<L::Pair>, walls: Vec<L::Pair>) {
+        self.build = build;
+        self.data = Some(Box::new(Filled { law, pairs, walls }));
+    }
+    /// The constants of pairs and of wall candidates (after [`LawConstants::set`] for this law).
+    pub fn get<L: ContactLaw>(&self) -> (&[L::Pair], &[L::Pair]) {
+        let f = self.data.as_ref().and_then(|d| d.downcast_ref::<Filled<L>>()).expect("law constants set for this law");
+        (&f.pairs, &f.walls)
+    }
+}
+
+impl Clone for LawConstants {
+    fn clone(&self) -> Self {
+        LawConstants::default()
+    }
+}
+
+impl std::fmt::Debug for LawConstants {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "LawConstants {{ build: {}, filled: {} }}", self.build, self.data.is_some())
     }
 }
 

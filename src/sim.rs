@@ -10,18 +10,15 @@
 //! 6. time advances; analysis and probes record; phase end conditions are checked.
 
 use crate::analysis::Analysis;
-use crate::case::{Case, ModelName, WallContactPoint};
+use crate::case::Case;
 use crate::checks;
 use crate::clump::Clumps;
-use crate::contact::hertz::{Hertz, HertzDamping};
-use crate::contact::hooke::Hooke;
-use crate::contact::{Convention, EndOfContact, FrictionCap, ShearKinematics, TangentialHistory, TangentialOptions};
 use crate::dim::{Dimension, Vec3};
 use crate::error::TalusError;
-use crate::forces::{compute_forces, ContactModel, SweepSettings};
+use crate::forces::{compute_forces, SweepSettings};
 use crate::generate;
 use crate::integrate::{self, GearState, IntegratorKind};
-use crate::material::{Mixing, PairTable};
+use crate::material::PairTable;
 use crate::neighbor::{Domain, History, NeighborList};
 use crate::fixed::{from_fixed, to_fixed};
 use crate::parallel::comm::Comm;
@@ -94,12 +91,9 @@ impl Simulation {
     /// keeps the particles inside its box of the initial decomposition.
     pub fn new_on(case: Case, comm: Rc<Comm>) -> Result<Simulation, TalusError> {
         let path = case.path.display().to_string();
-        let conv = case.contact.convention;
-        let mixing = match conv {
-            Convention::Liggghts | Convention::Talus => Mixing::Liggghts,
-            Convention::Yade => Mixing::Yade,
-        };
-        let table = PairTable::new(&case.materials, mixing);
+        // every convention option, resolved in one place
+        let opts = crate::contact::conventions::resolve(&case.contact);
+        let table = PairTable::new(&case.materials, opts.mixing);
         let pmat = case.material_index(&case.particles.material, "particles.material")?;
         let mat = &case.materials[pmat as usize];
 
@@ -247,56 +241,11 @@ impl Simulation {
             });
         }
 
-        let c = &case.contact;
-        let model = match c.model {
-            ModelName::Hooke => ContactModel::Hooke(match (c.stiffness, c.characteristic_velocity) {
-                (Some(h), _) => Hooke::Explicit(h),
-                (_, Some(v)) => Hooke::Derived { characteristic_velocity: v },
-                _ => unreachable!("validated"),
-            }),
-            ModelName::Hertz => ContactModel::Hertz(Hertz {
-                damping: c.damping.unwrap_or(match conv {
-                    Convention::Liggghts | Convention::Talus => HertzDamping::Liggghts,
-                    Convention::Yade => HertzDamping::Yade,
-                }),
-            }),
-        };
-        let end = c.end_of_contact.unwrap_or(match conv {
-            Convention::Liggghts | Convention::Talus => EndOfContact::Tensile,
-            Convention::Yade => EndOfContact::Clip,
-        });
-        let history = c.tangential.unwrap_or(match conv {
-            Convention::Liggghts | Convention::Talus => TangentialHistory::Total,
-            Convention::Yade => TangentialHistory::Incremental,
-        });
-        // YADE: Mindlin increments shear with full radii; ViscEl with the contact point
-        let kinematics = c.shear_kinematics.unwrap_or(match (conv, c.model) {
-            (Convention::Yade, ModelName::Hertz) => ShearKinematics::FullRadii,
-            _ => ShearKinematics::ContactPoint,
-        });
-        let wall_contact = c.wall_contact_point.unwrap_or(match conv {
-            Convention::Yade => WallContactPoint::Surface,
-            _ => WallContactPoint::MidOverlap,
-        });
-        let cap = c.friction_cap.unwrap_or(match conv {
-            Convention::Talus => FrictionCap::Elastic,
-            Convention::Liggghts | Convention::Yade => FrictionCap::Total,
-        });
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
         let set = Settings {
             dt,
             dim: s.dimension,
-            sweep: SweepSettings {
-                model,
-                end,
-                tang: TangentialOptions { history, cap, kinematics },
-                gravity: Vec3::from(s.gravity),
-                dt,
-                wall_arm_overlap: match wall_contact {
-                    WallContactPoint::MidOverlap => 0.5,
-                    WallContactPoint::Surface => 1.0,
-                },
-            },
+            sweep: SweepSettings { contact: case.contact, opts, gravity: Vec3::from(s.gravity), dt },
             integrator: s.integrator,
             domain,
             rayleigh_time: tr,

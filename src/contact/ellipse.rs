@@ -22,7 +22,9 @@
 //! bodies move. Against a wall (plane through q with unit normal m into the
 //! domain): delta = h(m) - (c - q).m, point c - A m / h (the paper's eq. 17).
 
+use super::geometry::{ContactGeom, Lever};
 use crate::dim::Vec3;
+use crate::walls::WallHit;
 
 /// An ellipse in the x-y plane (make it with [`Ellipse::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -262,6 +264,46 @@ pub fn newton_contact(e1: &Ellipse, e2: &Ellipse) -> Option<Option<EllipseContac
     let p1 = e1.support_point(nx, ny);
     let p2 = e2.support_point(-nx, -ny);
     Some((s < 0.0).then(|| EllipseContact { overlap: -s, n: Vec3::new(nx, ny, 0.0), point: (p1 + p2) * 0.5 }))
+}
+
+/// Contact geometry of two particles, at least one an ellipse (`ei` is i,
+/// `ej` is j; a round particle as an ellipse with a = b): the common normal and
+/// overlap by [`contact_fast`] (body 1 = j, body 2 = i, so n points from j to
+/// i), the branch vectors from each centre to the contact point (full lever
+/// arms, not along n), and R* from the local radii of curvature at the
+/// contact, rho = a^2 b^2 / h(n)^3 on each side.
+#[inline(always)]
+pub fn pair_geometry(ei: &Ellipse, ej: &Ellipse) -> Option<ContactGeom> {
+    contact_fast(ej, ei).map(|ec| {
+        let n = ec.n;
+        let (rho_i, rho_j) = (ei.curvature_radius(-n.x, -n.y), ej.curvature_radius(n.x, n.y));
+        ContactGeom {
+            n,
+            overlap: ec.overlap,
+            r_eff: Some(rho_i * rho_j / (rho_i + rho_j)),
+            lever: Lever::Branch { point: ec.point, branch_i: ec.point - ei.c, branch_j: Some(ec.point - ej.c) },
+        }
+    })
+}
+
+/// Contact geometry of an ellipse with a wall from the wall's hit (`hit.point`
+/// is the ellipse's deepest point): the force acts `arm_overlap` of the overlap
+/// back from it towards the ellipse (as for spheres), with the full lever arm
+/// from the centre; R* from the radius of curvature there, in series with the
+/// wall's (`wall_curvature`, None: flat).
+#[inline(always)]
+pub fn wall_geometry(e: &Ellipse, hit: &WallHit, arm_overlap: f64, wall_curvature: Option<f64>) -> ContactGeom {
+    let point = hit.point + hit.n * (arm_overlap * hit.overlap);
+    let rho = e.curvature_radius(-hit.n.x, -hit.n.y);
+    ContactGeom {
+        n: hit.n,
+        overlap: hit.overlap,
+        r_eff: Some(match wall_curvature {
+            None => rho,
+            Some(rw) => rho * rw / (rho + rw),
+        }),
+        lever: Lever::Branch { point, branch_i: point - e.c, branch_j: None },
+    }
 }
 
 /// A straight segment from p to q (a 2D wall), two-sided.

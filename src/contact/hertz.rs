@@ -12,7 +12,8 @@
 //! - `yade` (YADE 2023 `Ip2_FrictMat_FrictMat_MindlinPhys` with `en`/`es`): see
 //!   [`HertzDamping::Yade`].
 
-use super::{NormalCoeffs, NormalLaw, PairInertia};
+use super::{ContactLaw, ContactOptions, KeyError, NormalCoeffs, PairInertia};
+use crate::case::ContactSection;
 use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
 
@@ -46,9 +47,28 @@ pub struct Hertz {
     pub damping: HertzDamping,
 }
 
-impl NormalLaw for Hertz {
+impl ContactLaw for Hertz {
+    /// Nothing per pair beyond R* and sqrt(m*) (`PairInertia`) and the damping
+    /// prefactors per material pair (`PairMaterial::hertz_damping`).
+    type Pair = ();
+
+    /// `model = "hertz"` takes no coefficients; `damping` is a convention.
+    fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError> {
+        if c.stiffness.is_some() || c.characteristic_velocity.is_some() {
+            return Err(KeyError::new(
+                "contact.model",
+                "\"hertz\"",
+                "contact.stiffness and contact.characteristic_velocity belong to the hooke model",
+            ));
+        }
+        Ok(Hertz { damping: o.damping })
+    }
+
     #[inline(always)]
-    fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs {
+    fn pair(&self, _pm: &PairMaterial, _pi: PairInertia) {}
+
+    #[inline(always)]
+    fn normal(&self, pm: &PairMaterial, pi: PairInertia, _pair: &(), overlap: f64) -> NormalCoeffs {
         let sqrt_rd = (pi.r_eff * overlap).sqrt();
         let f_elastic = 4.0 / 3.0 * pm.y_eff * sqrt_rd * overlap;
         let kt = 8.0 * pm.g_eff * sqrt_rd;

@@ -14,7 +14,8 @@
 //! Undamped, a contact lasts pi sqrt(m*/k_n); with the tensile end-of-contact
 //! convention the restitution is exactly e.
 
-use super::{NormalCoeffs, NormalLaw, PairInertia};
+use super::{ContactLaw, ContactOptions, KeyError, NormalCoeffs, PairInertia};
+use crate::case::ContactSection;
 use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
 
@@ -82,10 +83,40 @@ impl Hooke {
     }
 }
 
-impl NormalLaw for Hooke {
+impl ContactLaw for Hooke {
+    /// k_n, k_t, gamma_n, gamma_t of the pair: derived once per pair (the
+    /// powf and log are not taken per contact and step).
+    type Pair = HookeExplicit;
+
+    /// `model = "hooke"` takes exactly one of `stiffness` (explicit) and
+    /// `characteristic_velocity` (derived).
+    fn from_case(c: &ContactSection, _o: &ContactOptions) -> Result<Self, KeyError> {
+        match (c.stiffness, c.characteristic_velocity) {
+            (Some(h), None) => {
+                for (k, v) in [("kn", h.kn), ("kt", h.kt), ("gamma_n", h.gamma_n), ("gamma_t", h.gamma_t)] {
+                    if !(v.is_finite() && v >= 0.0) || (k == "kn" && v == 0.0) {
+                        return Err(KeyError::new(&format!("contact.stiffness.{k}"), v, "must be a finite positive number"));
+                    }
+                }
+                Ok(Hooke::Explicit(h))
+            }
+            (None, Some(v)) if v > 0.0 && v.is_finite() => Ok(Hooke::Derived { characteristic_velocity: v }),
+            (None, Some(v)) => Err(KeyError::new("contact.characteristic_velocity", v, "must be a positive speed (m/s)")),
+            _ => Err(KeyError::new(
+                "contact.model",
+                "\"hooke\"",
+                "give exactly one of contact.stiffness (kn, kt, gamma_n, gamma_t) and contact.characteristic_velocity",
+            )),
+        }
+    }
+
     #[inline(always)]
-    fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs {
-        let h = self.coefficients(pm, pi);
+    fn pair(&self, pm: &PairMaterial, pi: PairInertia) -> HookeExplicit {
+        self.coefficients(pm, pi)
+    }
+
+    #[inline(always)]
+    fn normal(&self, _pm: &PairMaterial, _pi: PairInertia, h: &HookeExplicit, overlap: f64) -> NormalCoeffs {
         NormalCoeffs { f_elastic: h.kn * overlap, gamma_n: h.gamma_n, kt: h.kt, gamma_t: h.gamma_t }
     }
 }

@@ -1,39 +1,84 @@
 //! Contact laws: pure functions from contact geometry, relative motion, mixed pair
-//! properties and the law's own history to a force.
+//! properties and the law's own history to a force and the torques on both bodies.
 //!
-//! Every geometry (sphere-sphere, sphere-plane, sphere-triangle, later discs,
-//! ellipses and clump sub-contacts) produces a [`ContactGeom`]; every law takes
-//! one, so every law works on walls for free (YADE's Ig2 / Ip2 / Law2 split).
+//! Three stages (YADE's Ig2 / Ip2 / Law2): the geometry of every contact
+//! (sphere-sphere, sphere-wall feature, ellipse-ellipse, ellipse-wall) is one
+//! [`ContactGeom`] ([`geometry`]); the mixed material of the pair comes from a
+//! dense table (`material`), the pair's R*, m* and the law's own constants are
+//! computed once per pair ([`PairInertia`], [`ContactLaw::pair`]); a law
+//! ([`ContactLaw`]) turns them into a [`ContactForce`]. Every law works on every
+//! geometry, walls included.
 //!
 //! Sign conventions: `n` is the unit normal pointing from body j (or the wall)
-//! to body i; `overlap` > 0 in contact; `v_rel` is the velocity of i's material
-//! point at the contact minus j's; the returned force acts on i, and -force on j.
-//! The torque on each body is `-arm * n x force` with its own arm.
+//! to body i; `overlap` > 0 in contact; the relative velocity is that of i's
+//! material point at the contact minus j's; the returned force acts on i, and
+//! -force on j; `torque_i` and `torque_j` act on i and j.
+//!
+//! The conventions of the reference codes are resolved in one place,
+//! [`conventions::resolve`].
 
+pub mod conventions;
 pub mod ellipse;
+pub mod geometry;
 pub mod hertz;
 pub mod hooke;
 
+pub use conventions::ContactOptions;
+pub use geometry::{ContactGeom, Lever, Motion, Shapes};
+
+use crate::case::{ContactSection, ModelName};
 use crate::dim::Vec3;
 use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
 
-/// Geometry of one contact.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ContactGeom {
-    /// Unit normal from j to i.
-    pub n: Vec3,
-    /// Overlap delta (m), positive in contact.
-    pub overlap: f64,
-    /// Distance from i's centre to the contact point (m).
-    pub arm_i: f64,
-    /// Distance from j's centre to the contact point (m); 0 for a wall.
-    pub arm_j: f64,
+/// The one place a case's model name meets its law type: `user` is run with
+/// the law `model` names, monomorphised for it (static dispatch: the force
+/// sweep is compiled once per law). A new law adds its arm here.
+pub fn dispatch<U: LawUser>(model: ModelName, user: U) -> U::Out {
+    match model {
+        ModelName::Hooke => user.with::<hooke::Hooke>(),
+        ModelName::Hertz => user.with::<hertz::Hertz>(),
+    }
+}
+
+/// Something done with the law of a case, generic in the law (see [`dispatch`]).
+pub trait LawUser {
+    type Out;
+    fn with<L: ContactLaw>(self) -> Self::Out;
+}
+
+/// Check that the case's `[contact]` section gives the keys its law needs
+/// (and none that belong to another law), by building the law.
+pub fn check_law(c: &ContactSection) -> Result<(), KeyError> {
+    struct Check<'a>(&'a ContactSection);
+    impl LawUser for Check<'_> {
+        type Out = Result<(), KeyError>;
+        fn with<L: ContactLaw>(self) -> Self::Out {
+            L::from_case(self.0, &conventions::resolve(self.0)).map(|_| ())
+        }
+    }
+    dispatch(c.model, Check(c))
+}
+
+/// A bad key of the case's `[contact]` section: which key, its value, and why
+/// (the case names its file: "FILE: key = value: why").
+#[derive(Clone, Debug, PartialEq)]
+pub struct KeyError {
+    pub key: String,
+    pub value: String,
+    pub why: String,
+}
+
+impl KeyError {
+    pub fn new(key: &str, value: impl std::fmt::Display, why: &str) -> Self {
+        KeyError { key: key.to_string(), value: value.to_string(), why: why.to_string() }
+    }
 }
 
 /// Effective radius and mass of a pair: R* = R_i R_j / (R_i + R_j), m* likewise,
 /// and sqrt(m*). A wall has infinite radius and mass: R* = R_i, m* = m_i. Fixed
-/// for a pair, so the neighbour list computes it once per pair at each build.
+/// for a pair, so the neighbour list computes it once per pair and per wall
+/// candidate at each build (an ellipse's contact replaces R* by its own).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PairInertia {
     pub r_eff: f64,
@@ -73,10 +118,48 @@ pub struct NormalCoeffs {
     pub gamma_t: f64,
 }
 
-/// The normal part of a contact law. Implemented by zero-sized or small `Copy`
-/// types so the force sweep is monomorphised once per law (static dispatch).
-pub trait NormalLaw: Copy + Send + Sync {
-    fn coeffs(&self, pm: &PairMaterial, pi: PairInertia, overlap: f64) -> NormalCoeffs;
+/// A contact law. Implemented by zero-sized or small `Copy` types so that the
+/// force sweep is monomorphised once per law (static dispatch). A law gives its
+/// normal part ([`ContactLaw::normal`]); the shared kernel [`evaluate`] adds the
+/// normal dashpot, the end-of-contact convention, the tangential spring, dashpot
+/// and Coulomb slider, and the torques r x F. A law with torques of its own
+/// (rolling or twisting resistance) overrides [`ContactLaw::contact`].
+pub trait ContactLaw: Copy + PartialEq + Send + Sync + 'static {
+    /// The law's constants for one pair of bodies, functions of the mixed
+    /// material, R* and m* only: computed once per pair (at the first sweep
+    /// after each list build, kept in `NeighborList`), and per contact only
+    /// where the geometry sets R* (ellipses). `()` for a law without any.
+    type Pair: Copy + Send + Sync + 'static;
+
+    /// The law as the case's `[contact]` section and the resolved conventions
+    /// give it; a key it needs that is missing, a bad value, or a key of
+    /// another law is an error.
+    fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError>;
+
+    /// The constants of a pair with mixed material `pm` and R*, m* `pi`.
+    fn pair(&self, pm: &PairMaterial, pi: PairInertia) -> Self::Pair;
+
+    /// The normal part at this overlap: the elastic normal force and the
+    /// damping and tangential coefficients.
+    fn normal(&self, pm: &PairMaterial, pi: PairInertia, pair: &Self::Pair, overlap: f64) -> NormalCoeffs;
+
+    /// Force on i and torques on both bodies (the shared kernel unless the law
+    /// has its own torques).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn contact(
+        &self,
+        o: &ContactOptions,
+        pm: &PairMaterial,
+        pi: PairInertia,
+        pair: &Self::Pair,
+        g: &ContactGeom,
+        m: &Motion,
+        hist: &mut Vec3,
+        dt: f64,
+    ) -> ContactForce {
+        evaluate(*self, o, pm, pi, pair, g, m, hist, dt)
+    }
 }
 
 /// How the normal force behaves at the end of a contact.
@@ -147,47 +230,54 @@ pub struct TangentialOptions {
 /// Result of one contact evaluation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactForce {
-    /// Total force on i (N).
+    /// Total force on i (N); -force acts on j.
     pub force: Vec3,
+    /// Torque on i about its centre (N m).
+    pub torque_i: Vec3,
+    /// Torque on j about its centre, or for a wall about the contact point (N m).
+    pub torque_j: Vec3,
     /// Signed normal force on i along n (N); negative only with `EndOfContact::Tensile`.
     pub normal: f64,
 }
 
-/// Evaluate a contact: the normal law gives coefficients, the shared code adds
-/// normal damping, the end-of-contact convention, and the tangential spring,
-/// dashpot and Coulomb slider. `v_rel` is the relative velocity at the contact
-/// point (its normal part drives the normal dashpot); `v_shear` is the velocity
-/// whose tangential part drives the shear spring and dashpot (`v_rel` itself, or
-/// YADE's variant, see [`ShearKinematics`]). `hist` is the law's history (m for
-/// `Total`, N for `Incremental`), zero at first touch. `dt` is the time step (s).
+/// The shared kernel: the law's normal part gives coefficients, this adds the
+/// normal damping, the end-of-contact convention, the tangential spring,
+/// dashpot and Coulomb slider, and the torques r x F. The relative velocity
+/// at the contact point (its normal part drives the normal dashpot) and the
+/// velocity that drives the shear spring (the same, or YADE's variant, see
+/// [`ShearKinematics`]) come from the geometry and the bodies' motion. `hist`
+/// is the law's history (m for `Total`, N for `Incremental`), zero at first
+/// touch. `dt` is the time step (s).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub fn evaluate<L: NormalLaw>(
+pub fn evaluate<L: ContactLaw>(
     law: L,
-    end: EndOfContact,
-    tang: TangentialOptions,
+    o: &ContactOptions,
     pm: &PairMaterial,
     pi: PairInertia,
+    pair: &L::Pair,
     g: &ContactGeom,
-    v_rel: Vec3,
-    v_shear: Vec3,
+    m: &Motion,
     hist: &mut Vec3,
     dt: f64,
 ) -> ContactForce {
-    let c = law.coeffs(pm, pi, g.overlap);
+    let (v_rel, v_shear) = g.velocities(o.tang.kinematics, m);
+    let c = law.normal(pm, pi, pair, g.overlap);
     let vn = v_rel.dot(&g.n); // > 0 separating
     let mut f_n = c.f_elastic - c.gamma_n * vn;
-    if end == EndOfContact::Clip && f_n < 0.0 {
+    if o.end == EndOfContact::Clip && f_n < 0.0 {
         f_n = 0.0;
     }
     let v_t = v_shear - g.n * v_shear.dot(&g.n);
     let cap = pm.friction
-        * match tang.cap {
+        * match o.tang.cap {
             FrictionCap::Total => f_n.abs(),
             FrictionCap::Elastic => c.f_elastic,
         };
-    let f_t = tangential(c, tang.history, cap, g.n, v_t, hist, dt);
-    ContactForce { force: g.n * f_n + f_t, normal: f_n }
+    let f_t = tangential(c, o.tang.history, cap, g.n, v_t, hist, dt);
+    let force = g.n * f_n + f_t;
+    let (torque_i, torque_j) = g.torques(force);
+    ContactForce { force, torque_i, torque_j, normal: f_n }
 }
 
 /// Tangential spring-dashpot with a Coulomb slider. `cap` bounds the elastic
@@ -243,14 +333,6 @@ fn tangential(
     }
 }
 
-/// Velocity of i's material point at the contact relative to j's.
-/// `w_i`, `w_j` are angular velocities; the contact point is at -arm_i n from i
-/// and +arm_j n from j.
-#[inline(always)]
-pub fn relative_velocity(g: &ContactGeom, v_i: Vec3, v_j: Vec3, w_i: Vec3, w_j: Vec3) -> Vec3 {
-    (v_i - v_j) - (w_i * g.arm_i + w_j * g.arm_j).cross(&g.n)
-}
-
 /// YADE's shear-driving velocity: alpha (v_i - v_j) - (r_i w_i + r_j w_j) x n with
 /// full radii; `r_j` = 0 and alpha = 1 for a wall.
 #[inline(always)]
@@ -258,13 +340,6 @@ pub fn relative_velocity(g: &ContactGeom, v_i: Vec3, v_j: Vec3, w_i: Vec3, w_j: 
 pub fn yade_shear_velocity(n: Vec3, overlap: f64, r_i: f64, r_j: f64, v_i: Vec3, v_j: Vec3, w_i: Vec3, w_j: Vec3) -> Vec3 {
     let alpha = if r_j > 0.0 { (r_i + r_j) / (r_i + r_j - overlap) } else { 1.0 };
     (v_i - v_j) * alpha - (w_i * r_i + w_j * r_j).cross(&n)
-}
-
-/// Torques on i and j from the contact force on i.
-#[inline(always)]
-pub fn torques(g: &ContactGeom, f: Vec3) -> (Vec3, Vec3) {
-    let nxf = g.n.cross(&f);
-    (-nxf * g.arm_i, -nxf * g.arm_j)
 }
 
 /// The convention used to fill unspecified options: one reference code's as a

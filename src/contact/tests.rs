@@ -4,6 +4,7 @@ use super::hertz::{Hertz, HertzDamping};
 use super::hooke::{damping_for_restitution, liggghts_kn, Hooke, HookeExplicit};
 use super::*;
 use crate::material::{mix, Material, Mixing};
+use super::geometry::Lever;
 use approx::assert_relative_eq;
 use proptest::prelude::*;
 
@@ -26,8 +27,32 @@ fn pm(e: f64, mu: f64) -> PairMaterial {
 const TANG: TangentialOptions =
     TangentialOptions { history: TangentialHistory::Total, cap: FrictionCap::Total, kinematics: ShearKinematics::ContactPoint };
 
+/// Two spheres with arms `arm_i`, `arm_j` along n (a sphere on a wall when `arm_j` is 0).
+fn along(n: Vec3, overlap: f64, arm_i: f64, arm_j: f64) -> ContactGeom {
+    if arm_j == 0.0 {
+        ContactGeom::sphere_wall(n, overlap, arm_i, arm_i)
+    } else {
+        ContactGeom::spheres(n, overlap, [arm_i, arm_j], [arm_i, arm_j])
+    }
+}
+
 fn geom(overlap: f64) -> ContactGeom {
-    ContactGeom { n: Vec3::z(), overlap, arm_i: 0.002 - overlap / 2.0, arm_j: 0.002 - overlap / 2.0 }
+    along(Vec3::z(), overlap, 0.002 - overlap / 2.0, 0.002 - overlap / 2.0)
+}
+
+fn opts(end: EndOfContact, tang: TangentialOptions) -> ContactOptions {
+    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts }
+}
+
+/// Body i moving at v relative to a body j at rest, neither spinning.
+fn moving(v: Vec3) -> Motion {
+    Motion { v_i: v, w_i: Vec3::zeros(), v_j: Vec3::zeros(), w_j: Vec3::zeros() }
+}
+
+/// One evaluation with the law's per-pair constants made on the spot.
+#[allow(clippy::too_many_arguments)]
+fn eval<L: ContactLaw>(law: L, end: EndOfContact, tang: TangentialOptions, p: &PairMaterial, pi: PairInertia, g: &ContactGeom, v: Vec3, h: &mut Vec3, dt: f64) -> ContactForce {
+    law.contact(&opts(end, tang), p, pi, &law.pair(p, pi), g, &moving(v), h, dt)
 }
 
 #[test]
@@ -36,7 +61,7 @@ fn hertz_elastic_force_is_four_thirds_y_sqrt_r_delta_three_halves() {
     let pi = PairInertia::particles(0.002, 0.003, 1e-4, 2e-4);
     for d in [1e-6, 1e-5, 1e-4] {
         let mut h = Vec3::zeros();
-        let c = evaluate(Hertz { damping: HertzDamping::Liggghts }, EndOfContact::Tensile, TANG, &p, pi, &geom(d), Vec3::zeros(), Vec3::zeros(), &mut h, 1e-6);
+        let c = eval(Hertz { damping: HertzDamping::Liggghts }, EndOfContact::Tensile, TANG, &p, pi, &geom(d), Vec3::zeros(), &mut h, 1e-6);
         let expect = 4.0 / 3.0 * p.y_eff * pi.r_eff.sqrt() * d.powf(1.5);
         assert_relative_eq!(c.force.z, expect, max_relative = 1e-12);
         assert_relative_eq!(c.force.x, 0.0);
@@ -49,12 +74,12 @@ fn hooke_explicit_force_is_kn_delta_minus_gamma_vn() {
     let p = pm(0.5, 0.4);
     let pi = PairInertia::wall(0.002, 1e-4);
     let mut hist = Vec3::zeros();
-    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-4), Vec3::new(0.0, 0.0, -0.2), Vec3::new(0.0, 0.0, -0.2), &mut hist, 1e-6);
+    let c = eval(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-4), Vec3::new(0.0, 0.0, -0.2), &mut hist, 1e-6);
     assert_relative_eq!(c.force.z, 100.0 * 1e-4 + 0.3 * 0.2, max_relative = 1e-14);
     // separating fast: the force goes tensile, or is clipped at zero
-    let c = evaluate(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
+    let c = eval(Hooke::Explicit(h), EndOfContact::Tensile, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
     assert!(c.normal < 0.0);
-    let c = evaluate(Hooke::Explicit(h), EndOfContact::Clip, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
+    let c = eval(Hooke::Explicit(h), EndOfContact::Clip, TANG, &p, pi, &geom(1e-5), Vec3::new(0.0, 0.0, 1.0), &mut hist, 1e-6);
     assert_eq!(c.normal, 0.0);
 }
 
@@ -82,12 +107,104 @@ fn zero_overlap_zero_velocity_gives_zero_force() {
     let pi = PairInertia::particles(0.002, 0.002, 1e-4, 1e-4);
     for law in [Hertz { damping: HertzDamping::Liggghts }, Hertz { damping: HertzDamping::Yade }] {
         let mut h = Vec3::zeros();
-        let c = evaluate(law, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), Vec3::zeros(), &mut h, 1e-6);
+        let c = eval(law, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), &mut h, 1e-6);
         assert_eq!(c.force, Vec3::zeros());
     }
     let mut h = Vec3::zeros();
-    let c = evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), Vec3::zeros(), &mut h, 1e-6);
+    let c = eval(Hooke::Derived { characteristic_velocity: 0.5 }, EndOfContact::Tensile, TANG, &p, pi, &geom(0.0), Vec3::zeros(), &mut h, 1e-6);
     assert_eq!(c.force, Vec3::zeros());
+}
+
+#[test]
+fn conventions_fill_every_option_not_given() {
+    use crate::case::{ContactSection, ModelName};
+    let section = |convention, model| ContactSection {
+        model,
+        convention,
+        damping: None,
+        end_of_contact: None,
+        tangential: None,
+        friction_cap: None,
+        shear_kinematics: None,
+        wall_contact_point: None,
+        characteristic_velocity: None,
+        stiffness: None,
+    };
+    let t = conventions::resolve(&section(Convention::Talus, ModelName::Hertz));
+    assert_eq!((t.damping, t.end, t.tang.history), (HertzDamping::Liggghts, EndOfContact::Tensile, TangentialHistory::Total));
+    assert_eq!((t.tang.cap, t.tang.kinematics, t.wall_arm_overlap, t.mixing), (FrictionCap::Elastic, ShearKinematics::ContactPoint, 0.5, Mixing::Liggghts));
+    let l = conventions::resolve(&section(Convention::Liggghts, ModelName::Hertz));
+    assert_eq!(l, ContactOptions { tang: TangentialOptions { cap: FrictionCap::Total, ..t.tang }, ..t });
+    let y = conventions::resolve(&section(Convention::Yade, ModelName::Hertz));
+    assert_eq!((y.damping, y.end, y.tang.history), (HertzDamping::Yade, EndOfContact::Clip, TangentialHistory::Incremental));
+    assert_eq!((y.tang.cap, y.tang.kinematics, y.wall_arm_overlap, y.mixing), (FrictionCap::Total, ShearKinematics::FullRadii, 1.0, Mixing::Yade));
+    // YADE's ViscEl (hooke) drives the shear spring with the contact-point velocity
+    let yh = conventions::resolve(&section(Convention::Yade, ModelName::Hooke));
+    assert_eq!(yh.tang.kinematics, ShearKinematics::ContactPoint);
+    // a key given wins over the convention
+    let given = ContactSection { friction_cap: Some(FrictionCap::Elastic), ..section(Convention::Yade, ModelName::Hertz) };
+    assert_eq!(conventions::resolve(&given).tang.cap, FrictionCap::Elastic);
+}
+
+#[test]
+fn hooke_derives_its_coefficients_once_per_pair_to_the_bit() {
+    let p = pm(0.5, 0.4);
+    let pi = PairInertia::particles(0.002, 0.0015, 1e-4, 3e-5);
+    let law = Hooke::Derived { characteristic_velocity: 0.5 };
+    let h = law.pair(&p, pi);
+    let kn = liggghts_kn(p.y_eff, pi.r_eff, pi.m_eff, 0.5);
+    assert_eq!(h, HookeExplicit { kn, kt: kn, gamma_n: damping_for_restitution(pi.m_eff, kn, 0.5), gamma_t: h.gamma_n });
+    let c = law.normal(&p, pi, &h, 1e-5);
+    assert_eq!(c.f_elastic, kn * 1e-5);
+}
+
+#[test]
+fn two_spheres_touch_in_the_middle_of_their_overlap() {
+    let (xi, xj) = (Vec3::new(0.0, 0.0, 0.0035), Vec3::zeros());
+    let g = geometry::sphere_sphere(xi, 0.002, xj, 0.0025).unwrap();
+    assert_eq!((g.n, g.r_eff), (Vec3::z(), None));
+    assert_relative_eq!(g.overlap, 0.001, max_relative = 1e-12);
+    // arms r - delta/2: the point is 1.5 mm from i's centre, 2 mm from j's
+    assert_relative_eq!(g.point(xi).z, 0.002, max_relative = 1e-12);
+    assert_relative_eq!(g.branch_j().unwrap().z, 0.002, max_relative = 1e-12);
+    assert_eq!(geometry::sphere_sphere(xi, 0.001, xj, 0.0025), None);
+}
+
+proptest! {
+    /// The scalar arms along n (spheres) and the branch vectors (any shape) are
+    /// the same kinematics: w x r and r x F with r = -arm_i n and arm_j n.
+    #[test]
+    fn along_normal_arms_are_branch_vectors(a in 0.0..std::f64::consts::PI, b in 0.0..std::f64::consts::TAU, ai in 1e-4..3e-3f64, aj in 1e-4..3e-3f64,
+                                            w in prop::array::uniform6(-50.0..50.0f64), f in prop::array::uniform3(-1.0..1.0f64)) {
+        let n = unit(a, b);
+        let g = along(n, 1e-5, ai, aj);
+        let gb = ContactGeom { lever: Lever::Branch { point: Vec3::zeros(), branch_i: g.branch_i(), branch_j: g.branch_j() }, ..g };
+        prop_assert_eq!(g.branch_i(), -n * ai);
+        prop_assert_eq!(g.branch_j(), Some(n * aj));
+        let m = Motion { v_i: Vec3::new(0.1, -0.2, 0.3), w_i: Vec3::new(w[0], w[1], w[2]), v_j: Vec3::zeros(), w_j: Vec3::new(w[3], w[4], w[5]) };
+        let ((v, _), (vb, _)) = (g.velocities(ShearKinematics::ContactPoint, &m), gb.velocities(ShearKinematics::ContactPoint, &m));
+        prop_assert!((v - vb).norm() <= 1e-14 * (1.0 + vb.norm()));
+        let f = Vec3::new(f[0], f[1], f[2]);
+        let ((ti, tj), (tbi, tbj)) = (g.torques(f), gb.torques(f));
+        prop_assert!((ti - tbi).norm() + (tj - tbj).norm() <= 1e-15 * (ai + aj));
+    }
+
+    /// A wall has no centre: its torque is about the contact point, zero for a
+    /// force alone, and its velocity is the same everywhere.
+    #[test]
+    fn a_wall_takes_no_torque_about_the_contact_point(a in 0.0..std::f64::consts::PI, b in 0.0..std::f64::consts::TAU, d in 1e-7..2e-4f64,
+                                                      f in prop::array::uniform3(-1.0..1.0f64)) {
+        let n = unit(a, b);
+        let hit = crate::walls::WallHit { n, overlap: d, point: n * 0.001, feature: 0 };
+        let g = hit.sphere_geometry(0.003, 0.5);
+        prop_assert_eq!(g.branch_j(), None);
+        // the force acts at the middle of the overlap
+        let x = n * (0.003 - d);
+        prop_assert!((g.point(x) + n * (0.5 * d)).norm() <= 1e-15);
+        prop_assert!(g.torques(Vec3::new(f[0], f[1], f[2])).1.norm() == 0.0);
+        let gb = ContactGeom { lever: Lever::Branch { point: g.point(x), branch_i: g.branch_i(), branch_j: None }, ..g };
+        prop_assert!(gb.torques(Vec3::new(f[0], f[1], f[2])).1 == Vec3::zeros());
+    }
 }
 
 fn any_law() -> impl Strategy<Value = (bool, bool, bool)> {
@@ -102,9 +219,9 @@ fn eval_any(sel: (bool, bool, bool), p: &PairMaterial, pi: PairInertia, g: &Cont
         kinematics: ShearKinematics::ContactPoint,
     };
     if sel.0 {
-        evaluate(Hertz { damping: HertzDamping::Liggghts }, end, tang, p, pi, g, v, v, h, 1e-5)
+        eval(Hertz { damping: HertzDamping::Liggghts }, end, tang, p, pi, g, v, h, 1e-5)
     } else {
-        evaluate(Hooke::Derived { characteristic_velocity: 0.5 }, end, tang, p, pi, g, v, v, h, 1e-5)
+        eval(Hooke::Derived { characteristic_velocity: 0.5 }, end, tang, p, pi, g, v, h, 1e-5)
     }
 }
 
@@ -115,14 +232,14 @@ fn unit(a: f64, b: f64) -> Vec3 {
 
 proptest! {
     #[test]
-    fn newtons_third_law(sel in any_law(), a in 0.0..3.14f64, b in 0.0..6.28f64, d in 1e-7..2e-4f64,
+    fn newtons_third_law(sel in any_law(), a in 0.0..std::f64::consts::PI, b in 0.0..std::f64::consts::TAU, d in 1e-7..2e-4f64,
                          vx in -1.0..1.0f64, vy in -1.0..1.0f64, vz in -1.0..1.0f64, e in 0.1..1.0f64, mu in 0.0..1.0f64) {
         let p = pm(e, mu);
         let pi = PairInertia::particles(0.002, 0.0025, 1e-4, 1.5e-4);
         let n = unit(a, b);
         let v = Vec3::new(vx, vy, vz);
-        let g = ContactGeom { n, overlap: d, arm_i: 0.002, arm_j: 0.0025 };
-        let gs = ContactGeom { n: -n, overlap: d, arm_i: 0.0025, arm_j: 0.002 };
+        let g = along(n, d, 0.002, 0.0025);
+        let gs = along(-n, d, 0.0025, 0.002);
         let (mut h1, mut h2) = (Vec3::zeros(), Vec3::zeros());
         for _ in 0..3 {
             let f1 = eval_any(sel, &p, pi, &g, v, &mut h1);
@@ -132,7 +249,7 @@ proptest! {
     }
 
     #[test]
-    fn frame_indifference(sel in any_law(), a in 0.0..3.14f64, b in 0.0..6.28f64, d in 1e-7..2e-4f64,
+    fn frame_indifference(sel in any_law(), a in 0.0..std::f64::consts::PI, b in 0.0..std::f64::consts::TAU, d in 1e-7..2e-4f64,
                           vx in -1.0..1.0f64, vy in -1.0..1.0f64, vz in -1.0..1.0f64,
                           ax in -1.0..1.0f64, ay in -1.0..1.0f64, az in -1.0..1.0f64) {
         let p = pm(0.5, 0.4);
@@ -140,8 +257,8 @@ proptest! {
         let n = unit(a, b);
         let rot = nalgebra::Rotation3::new(Vec3::new(ax, ay, az) * 2.0);
         let v = Vec3::new(vx, vy, vz);
-        let g = ContactGeom { n, overlap: d, arm_i: 0.002, arm_j: 0.0 };
-        let gr = ContactGeom { n: rot * n, ..g };
+        let g = along(n, d, 0.002, 0.0);
+        let gr = along(rot * n, d, 0.002, 0.0);
         let (mut h1, mut h2) = (Vec3::zeros(), Vec3::zeros());
         for _ in 0..3 {
             let f1 = eval_any(sel, &p, pi, &g, v, &mut h1);
@@ -155,7 +272,7 @@ proptest! {
         // 2000 steps of 1e-5 s at vt >= 0.5 m/s: a centimetre of slip, far past sticking
         let p = pm(0.5, mu);
         let pi = PairInertia::wall(0.002, 1e-4);
-        let g = ContactGeom { n: Vec3::z(), overlap: d, arm_i: 0.002, arm_j: 0.0 };
+        let g = along(Vec3::z(), d, 0.002, 0.0);
         let mut h = Vec3::zeros();
         let mut f = eval_any(sel, &p, pi, &g, Vec3::new(vt, 0.0, 0.0), &mut h);
         for _ in 0..2000 {
@@ -171,7 +288,7 @@ proptest! {
     fn incremental_elastic_shear_never_exceeds_cap(d in 1e-7..2e-4f64, vt in -2.0..2.0f64, vn in -0.3..0.3f64, mu in 0.0..1.0f64) {
         let p = pm(0.5, mu);
         let pi = PairInertia::wall(0.002, 1e-4);
-        let g = ContactGeom { n: Vec3::z(), overlap: d, arm_i: 0.002, arm_j: 0.0 };
+        let g = along(Vec3::z(), d, 0.002, 0.0);
         let mut h = Vec3::zeros();
         for k in 0..100 {
             let v = Vec3::new(vt * (k as f64 * 0.1).cos(), vt * (k as f64 * 0.07).sin(), vn);

@@ -4,7 +4,10 @@
 
 pub mod mesh;
 
+use crate::contact::geometry::ContactGeom;
+use crate::contact::ContactForce;
 use crate::dim::Vec3;
+use crate::fixed::to_fixed;
 pub use mesh::Mesh;
 use serde::{Deserialize, Serialize};
 
@@ -19,6 +22,17 @@ pub struct WallHit {
     pub point: Vec3,
     /// Feature id within the wall (triangle index; 0 for a plane).
     pub feature: u32,
+}
+
+impl WallHit {
+    /// Contact geometry of a sphere of radius r from its hit: the force acts
+    /// on the normal through the centre, `arm_overlap` of the overlap back from
+    /// the sphere's deepest point (arm r - arm_overlap delta); R* is the pair's
+    /// own (the sphere's radius, in series with a curved wall's).
+    #[inline(always)]
+    pub fn sphere_geometry(&self, r: f64, arm_overlap: f64) -> ContactGeom {
+        ContactGeom::sphere_wall(self.n, self.overlap, r - arm_overlap * self.overlap, r)
+    }
 }
 
 /// Merge contacts of one sphere with one wall whose contact points coincide to
@@ -233,6 +247,25 @@ impl Wall {
                 contact_fast(&disc, e).map(|c| WallHit { n: c.n, overlap: c.overlap, point: e.support_point(-c.n.x, -c.n.y), feature })
             }
             Shape::Segments(s) => s.segment(feature as usize).ellipse_contact(e).map(hit),
+        }
+    }
+
+    /// Add a contact's reaction to this rank's load, in fixed point (exact
+    /// sums): the force -F at the contact point (torque point x -F about the
+    /// origin) and the law's torque on the wall, `torque_j`, which is referred
+    /// to the contact point (a couple; zero unless the law has one).
+    #[inline(always)]
+    pub fn add_load(&mut self, point: Vec3, c: &ContactForce) {
+        let t = point.cross(&c.force);
+        for k in 0..3 {
+            self.load[k] -= to_fixed(c.force[k]);
+            self.load[3 + k] -= to_fixed(t[k]);
+        }
+        // (+-0 for a force alone: adding it would add the integer 0)
+        if c.torque_j != Vec3::zeros() {
+            for k in 0..3 {
+                self.load[3 + k] += to_fixed(c.torque_j[k]);
+            }
         }
     }
 

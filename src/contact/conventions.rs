@@ -1,0 +1,72 @@
+//! The conventions of the reference codes, resolved in one place: every option
+//! the case's `[contact]` section does not give is filled from its
+//! `convention` (`talus`, `liggghts` or `yade`), as ARCHITECTURE.md's table
+//! "Contact laws" lists them.
+
+use super::hertz::HertzDamping;
+use super::{Convention, EndOfContact, FrictionCap, ShearKinematics, TangentialHistory, TangentialOptions};
+use crate::case::{ContactSection, ModelName, WallContactPoint};
+use crate::material::Mixing;
+
+/// Every convention option of a run, resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactOptions {
+    /// How Hertz maps restitution to damping.
+    pub damping: HertzDamping,
+    /// Whether the normal force may go tensile at the end of a contact.
+    pub end: EndOfContact,
+    /// Tangential history, Coulomb cap and shear kinematics.
+    pub tang: TangentialOptions,
+    /// Where a wall contact acts: arm r - f delta from the centre, f = 1/2 at
+    /// the middle of the overlap (LIGGGHTS `cr = r - delta/2`), f = 1 on the
+    /// wall surface (YADE's `ScGeom` contact point for `Ig2_Wall_Sphere_ScGeom`).
+    pub wall_arm_overlap: f64,
+    /// How two materials mix into a pair.
+    pub mixing: Mixing,
+}
+
+/// The options of the case's `[contact]` section: each one given, or its
+/// convention's.
+pub fn resolve(c: &ContactSection) -> ContactOptions {
+    use Convention::{Liggghts, Talus, Yade};
+    let conv = c.convention;
+    let damping = c.damping.unwrap_or(match conv {
+        Liggghts | Talus => HertzDamping::Liggghts,
+        Yade => HertzDamping::Yade,
+    });
+    let end = c.end_of_contact.unwrap_or(match conv {
+        Liggghts | Talus => EndOfContact::Tensile,
+        Yade => EndOfContact::Clip,
+    });
+    let history = c.tangential.unwrap_or(match conv {
+        Liggghts | Talus => TangentialHistory::Total,
+        Yade => TangentialHistory::Incremental,
+    });
+    // YADE: Mindlin increments shear with full radii; ViscEl with the contact point
+    let kinematics = c.shear_kinematics.unwrap_or(match (conv, c.model) {
+        (Yade, ModelName::Hertz) => ShearKinematics::FullRadii,
+        _ => ShearKinematics::ContactPoint,
+    });
+    let wall_contact = c.wall_contact_point.unwrap_or(match conv {
+        Yade => WallContactPoint::Surface,
+        Liggghts | Talus => WallContactPoint::MidOverlap,
+    });
+    let cap = c.friction_cap.unwrap_or(match conv {
+        Talus => FrictionCap::Elastic,
+        Liggghts | Yade => FrictionCap::Total,
+    });
+    let mixing = match conv {
+        Liggghts | Talus => Mixing::Liggghts,
+        Yade => Mixing::Yade,
+    };
+    ContactOptions {
+        damping,
+        end,
+        tang: TangentialOptions { history, cap, kinematics },
+        wall_arm_overlap: match wall_contact {
+            WallContactPoint::MidOverlap => 0.5,
+            WallContactPoint::Surface => 1.0,
+        },
+        mixing,
+    }
+}
