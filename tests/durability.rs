@@ -76,6 +76,16 @@ fn uninterrupted(dir: &Path, case: &Path) -> (String, String) {
     (summary(&out)["state_hash"].as_str().unwrap().into(), std::fs::read_to_string(out.join("probes.csv")).unwrap())
 }
 
+/// Restart from `ck` into `out` (the same folder): the run ends with the
+/// uninterrupted run's `state_hash` and `probes.csv`.
+fn restart_matches_uninterrupted(dir: &Path, case: &Path, out: &Path, ck: &Path) {
+    let (code, text) = run(case, out, &["--restart", ck.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{text}");
+    let (hash, probes) = uninterrupted(dir, case);
+    assert_eq!(summary(out)["state_hash"], hash.as_str());
+    assert_eq!(std::fs::read_to_string(out.join("probes.csv")).unwrap(), probes, "probes.csv continued");
+}
+
 #[test]
 fn kill_9_during_a_checkpoint_write_leaves_the_previous_checkpoint_usable() {
     let d = tempfile::tempdir().unwrap();
@@ -90,11 +100,7 @@ fn kill_9_during_a_checkpoint_write_leaves_the_previous_checkpoint_usable() {
     child.wait().unwrap();
     assert!(partial.exists(), "the half-written file is where the kill left it");
     // the previous checkpoint restarts and the run ends as an uninterrupted one
-    let (code, text) = run(&case, &out, &["--restart", ck.to_str().unwrap()]);
-    assert_eq!(code, Some(0), "{text}");
-    let (hash, probes) = uninterrupted(d.path(), &case);
-    assert_eq!(summary(&out)["state_hash"], hash.as_str());
-    assert_eq!(std::fs::read_to_string(out.join("probes.csv")).unwrap(), probes);
+    restart_matches_uninterrupted(d.path(), &case, &out, &ck);
 }
 
 #[test]
@@ -127,11 +133,7 @@ fn kill_9_mid_run_then_a_restart_into_the_same_folder_gives_the_uninterrupted_pr
     assert!(!out.join("summary.json").exists(), "killed before the end");
     let before = rows();
     assert!(before > 1, "probe rows are flushed at every interval: {before} lines after the kill");
-    let (code, text) = run(&case, &out, &["--restart", ck.to_str().unwrap()]);
-    assert_eq!(code, Some(0), "{text}");
-    let (hash, probes) = uninterrupted(d.path(), &case);
-    assert_eq!(summary(&out)["state_hash"], hash.as_str());
-    assert_eq!(std::fs::read_to_string(out.join("probes.csv")).unwrap(), probes, "probes.csv continued");
+    restart_matches_uninterrupted(d.path(), &case, &out, &ck);
     // snapshots continued too: the same groups, and an XDMF naming each once
     let names = |o: &Path| hdf5_metno::File::open(o.join("snapshots.h5")).unwrap().member_names().unwrap();
     assert_eq!(names(&out), names(&d.path().join("whole")));
@@ -156,11 +158,7 @@ fn sigint_writes_a_checkpoint_that_restarts_to_the_uninterrupted_state() {
     let s = summary(&out);
     assert_eq!(s["stopped_by_signal"], "SIGINT");
     assert!(s["steps"].as_u64().unwrap() < 700, "stopped early: {s}");
-    let (code, text) = run(&case, &out, &["--restart", out.join("checkpoint.bin").to_str().unwrap()]);
-    assert_eq!(code, Some(0), "{text}");
-    let (hash, probes) = uninterrupted(d.path(), &case);
-    assert_eq!(summary(&out)["state_hash"], hash.as_str());
-    assert_eq!(std::fs::read_to_string(out.join("probes.csv")).unwrap(), probes);
+    restart_matches_uninterrupted(d.path(), &case, &out, &out.join("checkpoint.bin"));
 }
 
 #[test]
@@ -216,11 +214,7 @@ fn sigterm_to_one_mpi_rank_stops_every_rank_at_the_same_step_with_a_checkpoint()
     assert_eq!(s["stopped_by_signal"], "SIGTERM", "{text}");
     assert_eq!(s["ranks"], 2);
     // the checkpoint holds every particle at one step, and restarts serially to the uninterrupted state
-    let (code, text) = run(&case, &out, &["--restart", out.join("checkpoint.bin").to_str().unwrap()]);
-    assert_eq!(code, Some(0), "{text}");
-    let (hash, probes) = uninterrupted(d.path(), &case);
-    assert_eq!(summary(&out)["state_hash"], hash.as_str());
-    assert_eq!(std::fs::read_to_string(out.join("probes.csv")).unwrap(), probes);
+    restart_matches_uninterrupted(d.path(), &case, &out, &out.join("checkpoint.bin"));
 }
 
 #[test]
