@@ -39,26 +39,80 @@ pub struct Case {
     pub path: PathBuf,
 }
 
+/// `[simulation]`. In the file the time step is `timestep` (s) or
+/// `timestep_rayleigh_fraction`, exactly one of them.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawSimulation", into = "RawSimulation")]
 pub struct SimulationSection {
-    #[serde(default)]
     pub dimension: Dimension,
-    /// Time step (s). Give this or `timestep_rayleigh_fraction`.
-    pub timestep: Option<f64>,
-    /// Time step as a fraction of the Rayleigh time of the smallest particle.
-    pub timestep_rayleigh_fraction: Option<f64>,
+    pub timestep: TimeStep,
     /// Accept a step above 30% of the Rayleigh time.
-    #[serde(default)]
     pub force_timestep: bool,
-    #[serde(default)]
     pub gravity: [f64; 3],
-    #[serde(default)]
     pub integrator: IntegratorKind,
     /// Verlet skin (m); default 0.2 of the smallest radius.
     pub skin: Option<f64>,
     /// Box particles must stay in.
     pub domain: DomainSection,
+}
+
+/// How a case gives its time step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeStep {
+    /// `timestep`: seconds.
+    Seconds(f64),
+    /// `timestep_rayleigh_fraction`: a fraction of the Rayleigh time of the smallest particle.
+    RayleighFraction(f64),
+}
+
+/// `[simulation]` as written in the file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSimulation {
+    #[serde(default)]
+    dimension: Dimension,
+    timestep: Option<f64>,
+    timestep_rayleigh_fraction: Option<f64>,
+    #[serde(default)]
+    force_timestep: bool,
+    #[serde(default)]
+    gravity: [f64; 3],
+    #[serde(default)]
+    integrator: IntegratorKind,
+    skin: Option<f64>,
+    domain: DomainSection,
+}
+
+impl TryFrom<RawSimulation> for SimulationSection {
+    type Error = String;
+    fn try_from(r: RawSimulation) -> Result<Self, String> {
+        let timestep = match (r.timestep, r.timestep_rayleigh_fraction) {
+            (Some(dt), None) => TimeStep::Seconds(dt),
+            (None, Some(f)) => TimeStep::RayleighFraction(f),
+            (a, b) => {
+                let given = match (a, b) {
+                    (Some(a), Some(b)) => format!("timestep = {a} and timestep_rayleigh_fraction = {b}"),
+                    _ => "no time step".to_string(),
+                };
+                return Err(format!(
+                    "simulation: {given}: give exactly one of simulation.timestep and simulation.timestep_rayleigh_fraction"
+                ));
+            }
+        };
+        let RawSimulation { dimension, force_timestep, gravity, integrator, skin, domain, .. } = r;
+        Ok(SimulationSection { dimension, timestep, force_timestep, gravity, integrator, skin, domain })
+    }
+}
+
+impl From<SimulationSection> for RawSimulation {
+    fn from(s: SimulationSection) -> Self {
+        let (timestep, timestep_rayleigh_fraction) = match s.timestep {
+            TimeStep::Seconds(dt) => (Some(dt), None),
+            TimeStep::RayleighFraction(f) => (None, Some(f)),
+        };
+        let SimulationSection { dimension, force_timestep, gravity, integrator, skin, domain, .. } = s;
+        RawSimulation { dimension, timestep, timestep_rayleigh_fraction, force_timestep, gravity, integrator, skin, domain }
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -108,26 +162,79 @@ pub enum WallContactPoint {
     Surface,
 }
 
+/// `[particles]`. In the file the particles come from exactly one of `csv`,
+/// `lattice` and `list`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawParticles", into = "RawParticles")]
 pub struct ParticlesSection {
     pub material: String,
     /// Largest initial overlap accepted, as a fraction of the smaller radius.
-    #[serde(default = "default_overlap_tol")]
     pub overlap_tolerance: f64,
-    /// CSV file `id,x,y,z,radius` with optional `vx,vy,vz` (and `wx,wy,wz`).
-    pub csv: Option<PathBuf>,
-    pub lattice: Option<LatticeSection>,
-    pub list: Option<Vec<ParticleEntry>>,
+    pub source: ParticleSource,
     /// Rigid pairs (2D dumbbells): each entry names the ids of two particles
     /// that move as one body, joined where they touch.
-    #[serde(default)]
     pub clumps: Vec<[u64; 2]>,
     /// Ellipses (2D): each entry turns the particle `id` into an ellipse of
     /// aspect ratio a/b with the area of its listed disc (its radius is the
     /// equivalent radius sqrt(a b)), major axis at `angle` (rad) from x.
-    #[serde(default)]
     pub ellipses: Vec<EllipseEntry>,
+}
+
+/// Where the particles come from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParticleSource {
+    /// `csv`: a file `id,x,y,z,radius` with optional `vx,vy,vz` (and `wx,wy,wz`).
+    Csv(PathBuf),
+    /// `lattice`: a seeded jittered-lattice cloud.
+    Lattice(LatticeSection),
+    /// `list`: particles given one by one.
+    List(Vec<ParticleEntry>),
+}
+
+/// `[particles]` as written in the file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawParticles {
+    material: String,
+    #[serde(default = "default_overlap_tol")]
+    overlap_tolerance: f64,
+    csv: Option<PathBuf>,
+    lattice: Option<LatticeSection>,
+    list: Option<Vec<ParticleEntry>>,
+    #[serde(default)]
+    clumps: Vec<[u64; 2]>,
+    #[serde(default)]
+    ellipses: Vec<EllipseEntry>,
+}
+
+impl TryFrom<RawParticles> for ParticlesSection {
+    type Error = String;
+    fn try_from(r: RawParticles) -> Result<Self, String> {
+        let source = match (r.csv, r.lattice, r.list) {
+            (Some(f), None, None) => ParticleSource::Csv(f),
+            (None, Some(l), None) => ParticleSource::Lattice(l),
+            (None, None, Some(l)) => ParticleSource::List(l),
+            (a, b, c) => {
+                let n = a.is_some() as u8 + b.is_some() as u8 + c.is_some() as u8;
+                return Err(format!("particles: {n} particle sources: give exactly one of particles.csv, particles.lattice, particles.list"));
+            }
+        };
+        let RawParticles { material, overlap_tolerance, clumps, ellipses, .. } = r;
+        Ok(ParticlesSection { material, overlap_tolerance, source, clumps, ellipses })
+    }
+}
+
+impl From<ParticlesSection> for RawParticles {
+    fn from(p: ParticlesSection) -> Self {
+        let (mut csv, mut lattice, mut list) = (None, None, None);
+        match p.source {
+            ParticleSource::Csv(f) => csv = Some(f),
+            ParticleSource::Lattice(l) => lattice = Some(l),
+            ParticleSource::List(l) => list = Some(l),
+        }
+        let ParticlesSection { material, overlap_tolerance, clumps, ellipses, .. } = p;
+        RawParticles { material, overlap_tolerance, csv, lattice, list, clumps, ellipses }
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -175,48 +282,132 @@ pub struct ParticleEntry {
     pub radius: f64,
 }
 
+/// `[[wall]]`. In the file its shape is exactly one of `plane`, `stl`,
+/// `disc`, `segment` and `box`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawWall", into = "RawWall")]
 pub struct WallSection {
     pub name: String,
     pub material: String,
-    pub plane: Option<PlaneSection>,
-    pub stl: Option<PathBuf>,
-    /// A rigid ball (2D: a disc, the cross-section of a cylinder), touched from outside.
-    pub disc: Option<DiscSection>,
-    /// 2D: a straight segment `{ from, to }`, touched from either side.
-    pub segment: Option<SegmentSection>,
-    /// 2D: a closed box of four segments `{ lo, hi }` (x-y corners), one wall.
-    #[serde(rename = "box")]
-    pub boxed: Option<BoxSection>,
-    #[serde(default)]
+    pub shape: WallShape,
     pub velocity: [f64; 3],
     /// Remove the wall at this simulated time (s).
     pub remove_at: Option<f64>,
 }
 
+/// A wall's shape as the case gives it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WallShape {
+    /// A one-sided plane.
+    Plane(PlaneSection),
+    /// A triangle mesh from an STL file (two-sided).
+    Stl(PathBuf),
+    /// A rigid ball (2D: a disc, the cross-section of a cylinder), touched from outside.
+    Disc(DiscSection),
+    /// 2D: a straight segment `{ from, to }`, touched from either side.
+    Segment(SegmentSection),
+    /// 2D: a closed box of four segments `{ lo, hi }` (x-y corners), one wall.
+    Box(BoxSection),
+}
+
+impl WallShape {
+    /// The key that gives this shape in a case file.
+    pub fn key(&self) -> &'static str {
+        match self {
+            WallShape::Plane(_) => "plane",
+            WallShape::Stl(_) => "stl",
+            WallShape::Disc(_) => "disc",
+            WallShape::Segment(_) => "segment",
+            WallShape::Box(_) => "box",
+        }
+    }
+}
+
+/// `[[wall]]` as written in the file.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWall {
+    name: String,
+    material: String,
+    plane: Option<PlaneSection>,
+    stl: Option<PathBuf>,
+    disc: Option<DiscSection>,
+    segment: Option<SegmentSection>,
+    #[serde(rename = "box")]
+    boxed: Option<BoxSection>,
+    #[serde(default)]
+    velocity: [f64; 3],
+    remove_at: Option<f64>,
+}
+
+impl TryFrom<RawWall> for WallSection {
+    type Error = String;
+    fn try_from(r: RawWall) -> Result<Self, String> {
+        let mut shapes: Vec<WallShape> = Vec::new();
+        shapes.extend(r.plane.map(WallShape::Plane));
+        shapes.extend(r.stl.map(WallShape::Stl));
+        shapes.extend(r.disc.map(WallShape::Disc));
+        shapes.extend(r.segment.map(WallShape::Segment));
+        shapes.extend(r.boxed.map(WallShape::Box));
+        if shapes.len() != 1 {
+            let given: Vec<&str> = shapes.iter().map(WallShape::key).collect();
+            return Err(format!(
+                "wall.{}: shapes given: [{}]: give exactly one of plane, stl, disc, segment and box",
+                r.name,
+                given.join(", ")
+            ));
+        }
+        let shape = shapes.pop().expect("one shape, checked above");
+        Ok(WallSection { name: r.name, material: r.material, shape, velocity: r.velocity, remove_at: r.remove_at })
+    }
+}
+
+impl From<WallSection> for RawWall {
+    fn from(w: WallSection) -> Self {
+        let mut r = RawWall {
+            name: w.name,
+            material: w.material,
+            plane: None,
+            stl: None,
+            disc: None,
+            segment: None,
+            boxed: None,
+            velocity: w.velocity,
+            remove_at: w.remove_at,
+        };
+        match w.shape {
+            WallShape::Plane(p) => r.plane = Some(p),
+            WallShape::Stl(f) => r.stl = Some(f),
+            WallShape::Disc(d) => r.disc = Some(d),
+            WallShape::Segment(s) => r.segment = Some(s),
+            WallShape::Box(b) => r.boxed = Some(b),
+        }
+        r
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SegmentSection {
     pub from: [f64; 3],
     pub to: [f64; 3],
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct BoxSection {
     pub lo: [f64; 3],
     pub hi: [f64; 3],
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DiscSection {
     pub center: [f64; 3],
     pub radius: f64,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PlaneSection {
     pub point: [f64; 3],
@@ -452,19 +643,12 @@ impl Case {
 
     fn validate_simulation(&self) -> Result<(), TalusError> {
         let s = &self.simulation;
-        match (s.timestep, s.timestep_rayleigh_fraction) {
-            (Some(dt), None) if !(dt.is_finite() && dt > 0.0) => {
+        match s.timestep {
+            TimeStep::Seconds(dt) if !(dt.is_finite() && dt > 0.0) => {
                 return Err(self.err("simulation.timestep", dt, "the time step must be a positive number of seconds"));
             }
-            (None, Some(f)) if !(f.is_finite() && f > 0.0) => {
+            TimeStep::RayleighFraction(f) if !(f.is_finite() && f > 0.0) => {
                 return Err(self.err("simulation.timestep_rayleigh_fraction", f, "must be positive"));
-            }
-            (Some(_), Some(_)) | (None, None) => {
-                return Err(self.err(
-                    "simulation.timestep",
-                    format!("{:?}", s.timestep),
-                    "give exactly one of simulation.timestep and simulation.timestep_rayleigh_fraction",
-                ));
             }
             _ => {}
         }
@@ -526,18 +710,15 @@ impl Case {
     fn validate_particles(&self) -> Result<(), TalusError> {
         let ps = &self.particles;
         self.material_index(&ps.material, "particles.material")?;
-        let sources = ps.csv.is_some() as u8 + ps.lattice.is_some() as u8 + ps.list.is_some() as u8;
-        if sources != 1 {
-            return Err(self.err("particles", sources, "give exactly one of particles.csv, particles.lattice, particles.list"));
-        }
         if ps.overlap_tolerance.is_nan() || ps.overlap_tolerance < 0.0 {
             return Err(self.err("particles.overlap_tolerance", ps.overlap_tolerance, "must be a fraction >= 0 of the radius"));
         }
-        if ps.list.as_ref().is_some_and(|l| l.is_empty()) {
-            return Err(self.err("particles.list", "[]", "no particles; give at least one"));
-        }
-        if let Some(l) = &ps.lattice {
-            self.validate_lattice(l)?;
+        match &ps.source {
+            ParticleSource::List(l) if l.is_empty() => {
+                return Err(self.err("particles.list", "[]", "no particles; give at least one"));
+            }
+            ParticleSource::Lattice(l) => self.validate_lattice(l)?,
+            _ => {}
         }
         Ok(())
     }
@@ -593,65 +774,56 @@ impl Case {
     fn validate_wall(&self, w: &WallSection) -> Result<(), TalusError> {
         let name = &w.name;
         self.material_index(&w.material, &format!("wall.{name}.material"))?;
-        let shapes = w.plane.is_some() as u8
-            + w.stl.is_some() as u8
-            + w.disc.is_some() as u8
-            + w.segment.is_some() as u8
-            + w.boxed.is_some() as u8;
-        if shapes != 1 {
-            return Err(self.err(&format!("wall.{name}"), "", "give exactly one of plane, stl, disc, segment and box"));
-        }
         let two_d = self.simulation.dimension == Dimension::Two;
-        if !two_d && (w.segment.is_some() || w.boxed.is_some()) {
-            let key = if w.segment.is_some() { "segment" } else { "box" };
-            return Err(self.err(&format!("wall.{name}.{key}"), "", "segments and boxes are 2D walls (simulation.dimension = \"2\"); in 3D use planes and STL meshes"));
-        }
-        if let Some(s) = &w.segment {
-            if s.from[2] != 0.0 || s.to[2] != 0.0 || s.from == s.to || s.from.iter().chain(&s.to).any(|x| !x.is_finite()) {
-                return Err(self.err(&format!("wall.{name}.segment"), format!("from {:?} to {:?}", s.from, s.to), "needs two distinct finite end points in z = 0"));
+        let key = |k: &str| format!("wall.{name}.{}{k}", w.shape.key());
+        match &w.shape {
+            WallShape::Segment(_) | WallShape::Box(_) if !two_d => {
+                return Err(self.err(&key(""), "", "segments and boxes are 2D walls (simulation.dimension = \"2\"); in 3D use planes and STL meshes"));
             }
-        }
-        if let Some(b) = &w.boxed {
-            if b.lo[2] != 0.0 || b.hi[2] != 0.0 || !(b.lo[0] < b.hi[0] && b.lo[1] < b.hi[1]) || b.lo.iter().chain(&b.hi).any(|x| !x.is_finite()) {
-                return Err(self.err(&format!("wall.{name}.box"), format!("lo {:?} hi {:?}", b.lo, b.hi), "needs finite corners in z = 0 with lo < hi in x and y"));
+            WallShape::Segment(s) => {
+                if s.from[2] != 0.0 || s.to[2] != 0.0 || s.from == s.to || s.from.iter().chain(&s.to).any(|x| !x.is_finite()) {
+                    return Err(self.err(&key(""), format!("from {:?} to {:?}", s.from, s.to), "needs two distinct finite end points in z = 0"));
+                }
             }
-        }
-        if let Some(d) = &w.disc {
-            if !(d.radius.is_finite() && d.radius > 0.0) {
-                return Err(self.err(&format!("wall.{name}.disc.radius"), d.radius, "must be a positive length (m)"));
+            WallShape::Box(b) => {
+                if b.lo[2] != 0.0 || b.hi[2] != 0.0 || !(b.lo[0] < b.hi[0] && b.lo[1] < b.hi[1]) || b.lo.iter().chain(&b.hi).any(|x| !x.is_finite()) {
+                    return Err(self.err(&key(""), format!("lo {:?} hi {:?}", b.lo, b.hi), "needs finite corners in z = 0 with lo < hi in x and y"));
+                }
             }
-            if d.center.iter().any(|x| !x.is_finite()) {
-                return Err(self.err(&format!("wall.{name}.disc.center"), format!("{:?}", d.center), "every component must be a finite number (m)"));
+            WallShape::Disc(d) => {
+                if !(d.radius.is_finite() && d.radius > 0.0) {
+                    return Err(self.err(&key(".radius"), d.radius, "must be a positive length (m)"));
+                }
+                if d.center.iter().any(|x| !x.is_finite()) {
+                    return Err(self.err(&key(".center"), format!("{:?}", d.center), "every component must be a finite number (m)"));
+                }
             }
+            WallShape::Plane(p) => {
+                let n = (p.normal[0].powi(2) + p.normal[1].powi(2) + p.normal[2].powi(2)).sqrt();
+                if !(n > 0.0 && n.is_finite()) {
+                    return Err(self.err(&key(".normal"), format!("{:?}", p.normal), "the normal must be a non-zero vector"));
+                }
+                if p.point.iter().any(|x| !x.is_finite()) {
+                    return Err(self.err(&key(".point"), format!("{:?}", p.point), "every component must be a finite number (m)"));
+                }
+                if two_d && p.normal[2] != 0.0 {
+                    return Err(self.err(&key(".normal"), format!("{:?}", p.normal), "in 2D a wall's normal lies in the x-y plane (z component 0)"));
+                }
+            }
+            WallShape::Stl(_) if two_d => {
+                return Err(self.err(&key(""), "", "STL meshes are 3D walls; in 2D use planes (lines) and discs"));
+            }
+            WallShape::Stl(_) => {}
         }
         if w.velocity.iter().any(|v| !v.is_finite()) {
             return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "every component must be a finite number (m/s)"));
         }
-        if two_d {
-            if let Some(p) = &w.plane {
-                if p.normal[2] != 0.0 {
-                    return Err(self.err(&format!("wall.{name}.plane.normal"), format!("{:?}", p.normal), "in 2D a wall's normal lies in the x-y plane (z component 0)"));
-                }
-            }
-            if w.stl.is_some() {
-                return Err(self.err(&format!("wall.{name}.stl"), "", "STL meshes are 3D walls; in 2D use planes (lines) and discs"));
-            }
-            if w.velocity[2] != 0.0 {
-                return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "in 2D a wall moves in the x-y plane (z component 0)"));
-            }
+        if two_d && w.velocity[2] != 0.0 {
+            return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "in 2D a wall moves in the x-y plane (z component 0)"));
         }
         if let Some(t) = w.remove_at {
             if !(t.is_finite() && t >= 0.0) {
                 return Err(self.err(&format!("wall.{name}.remove_at"), t, "must be a time >= 0 (s)"));
-            }
-        }
-        if let Some(p) = &w.plane {
-            let n = (p.normal[0].powi(2) + p.normal[1].powi(2) + p.normal[2].powi(2)).sqrt();
-            if !(n > 0.0 && n.is_finite()) {
-                return Err(self.err(&format!("wall.{name}.plane.normal"), format!("{:?}", p.normal), "the normal must be a non-zero vector"));
-            }
-            if p.point.iter().any(|x| !x.is_finite()) {
-                return Err(self.err(&format!("wall.{name}.plane.point"), format!("{:?}", p.point), "every component must be a finite number (m)"));
             }
         }
         Ok(())

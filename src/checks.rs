@@ -4,7 +4,7 @@
 //! stiffest contact of the case. `Simulation::new_on` calls them; every message
 //! names the file, the key or particle, and the value.
 
-use crate::case::{Case, ModelName};
+use crate::case::{Case, ModelName, ParticleSource};
 use crate::error::TalusError;
 use crate::parallel::comm::Comm;
 use crate::particles::Particles;
@@ -66,10 +66,10 @@ pub fn memory(case: &Case, count: usize, comm: &Comm) -> Result<(), TalusError> 
         return Ok(());
     }
     let ps = &case.particles;
-    let (key, value) = match (&ps.lattice, &ps.csv) {
-        (Some(l), _) => ("particles.lattice.count".to_string(), l.count.to_string()),
-        (_, Some(f)) => ("particles.csv".to_string(), format!("\"{}\"", f.display())),
-        _ => ("particles.list".to_string(), format!("[{count} entries]")),
+    let (key, value) = match &ps.source {
+        ParticleSource::Lattice(l) => ("particles.lattice.count".to_string(), l.count.to_string()),
+        ParticleSource::Csv(f) => ("particles.csv".to_string(), format!("\"{}\"", f.display())),
+        ParticleSource::List(_) => ("particles.list".to_string(), format!("[{count} entries]")),
     };
     let shared = if ranks > 1.0 { format!(" x {ranks} MPI ranks on one machine, each holding every particle while the run starts") } else { String::new() };
     let source = if comm.size() > 1 && rank != comm.rank() { format!("{source}, rank {rank}") } else { source.to_string() };

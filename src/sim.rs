@@ -10,7 +10,7 @@
 //! 6. time advances; analysis and probes record; phase end conditions are checked.
 
 use crate::analysis::Analysis;
-use crate::case::Case;
+use crate::case::{Case, ParticleEntry, ParticleSource, TimeStep, WallShape};
 use crate::checks;
 use crate::clump::Clumps;
 use crate::dim::{Dimension, Vec3};
@@ -24,7 +24,7 @@ use crate::fixed::{from_fixed, to_fixed};
 use crate::parallel::comm::Comm;
 use crate::parallel::decomp::{choose_grid, Decomposition};
 use crate::parallel::{BalanceSettings, Parallel};
-use crate::particles::{Particles, Record};
+use crate::particles::{ParticleInit, Particles, Record};
 use std::rc::Rc;
 use std::time::Instant;
 use crate::walls::{Disc, Mesh, Plane, Segments, Shape, Wall};
@@ -97,49 +97,7 @@ impl Simulation {
         let pmat = case.material_index(&case.particles.material, "particles.material")?;
         let mat = &case.materials[pmat as usize];
 
-        // particles (a lattice's memory is checked before it is made, a list's or CSV's once read)
-        if let Some(l) = &case.particles.lattice {
-            checks::memory(&case, l.count, &comm)?;
-        }
-        let inits = if let Some(l) = &case.particles.lattice {
-            generate::lattice_cloud(l)
-        } else if let Some(f) = &case.particles.csv {
-            generate::read_csv(&case.resolve(f))?
-        } else {
-            let list = case.particles.list.as_ref().expect("validated");
-            let mut seen = std::collections::HashSet::new();
-            list.iter()
-                .enumerate()
-                .map(|(k, e)| {
-                    if !(e.radius > 0.0 && e.radius.is_finite()) {
-                        return Err(TalusError::Input(format!(
-                            "{path}: particles.list[{k}].radius = {}: a radius must be positive",
-                            e.radius
-                        )));
-                    }
-                    for (key, v) in [("position", e.position), ("velocity", e.velocity), ("spin", e.spin)] {
-                        if v.iter().any(|x| !x.is_finite()) {
-                            return Err(TalusError::Input(format!(
-                                "{path}: particles.list[{k}].{key} = {v:?}: every component must be a finite number"
-                            )));
-                        }
-                    }
-                    if !seen.insert(e.id) {
-                        return Err(TalusError::Input(format!("{path}: particles.list[{k}].id = {} appears twice", e.id)));
-                    }
-                    Ok(crate::particles::ParticleInit {
-                        id: e.id,
-                        pos: Vec3::from(e.position),
-                        vel: Vec3::from(e.velocity),
-                        omega: Vec3::from(e.spin),
-                        radius: e.radius,
-                    })
-                })
-                .collect::<Result<Vec<_>, _>>()?
-        };
-        if case.particles.lattice.is_none() {
-            checks::memory(&case, inits.len(), &comm)?;
-        }
+        let inits = particle_inits(&case, &comm)?;
         if case.simulation.dimension == Dimension::Two {
             // 2D (as LIGGGHTS `dimension 2`): spheres moving in the x-y plane, spinning about z
             if let Some(i) = inits.iter().find(|i| i.pos.z != 0.0 || i.vel.z != 0.0 || i.omega.x != 0.0 || i.omega.y != 0.0) {
@@ -196,10 +154,9 @@ impl Simulation {
         let rmin = p.minor.iter().cloned().fold(f64::INFINITY, f64::min);
         let tr = rayleigh_time(rmin, mat.density, mat.shear_modulus(), mat.poisson_ratio);
         let s = &case.simulation;
-        let dt = match (s.timestep, s.timestep_rayleigh_fraction) {
-            (Some(dt), _) => dt,
-            (_, Some(f)) => f * tr,
-            _ => unreachable!("validated"),
+        let dt = match s.timestep {
+            TimeStep::Seconds(dt) => dt,
+            TimeStep::RayleighFraction(f) => f * tr,
         };
         if dt > 0.3 * tr && !s.force_timestep {
             return Err(TalusError::Input(format!(
@@ -209,37 +166,7 @@ impl Simulation {
         }
         checks::contact_period(&case, &p, dt)?;
 
-        // walls
-        let mut walls = Vec::new();
-        for w in &case.walls {
-            let shape = if let Some(pl) = &w.plane {
-                Shape::Plane(Plane { point: Vec3::from(pl.point), normal: Vec3::from(pl.normal).normalize() })
-            } else {
-                if let Some(d) = &w.disc {
-                    Shape::Disc(Disc { center: Vec3::from(d.center), radius: d.radius })
-                } else if let Some(s) = &w.segment {
-                    Shape::Segments(Segments { segs: vec![[Vec3::from(s.from), Vec3::from(s.to)]] })
-                } else if let Some(b) = &w.boxed {
-                    let c = |x: f64, y: f64| Vec3::new(x, y, 0.0);
-                    let (l, h) = (b.lo, b.hi);
-                    let k = [c(l[0], l[1]), c(h[0], l[1]), c(h[0], h[1]), c(l[0], h[1])];
-                    Shape::Segments(Segments { segs: (0..4).map(|i| [k[i], k[(i + 1) % 4]]).collect() })
-                } else {
-                    Shape::Mesh(Mesh::from_stl(&case.resolve(w.stl.as_ref().expect("validated")))?)
-                }
-            };
-            walls.push(Wall {
-                name: w.name.clone(),
-                shape,
-                material: case.material_index(&w.material, "wall.material")?,
-                velocity: Vec3::from(w.velocity),
-                active: true,
-                remove_at: w.remove_at,
-                force: Vec3::zeros(),
-                torque: Vec3::zeros(),
-                load: [0; 6],
-            });
-        }
+        let walls = build_walls(&case)?;
 
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
         let set = Settings {
@@ -601,4 +528,84 @@ impl Simulation {
         }
         format!("{h:016x}")
     }
+}
+
+/// The initial particles of a case, from its source. A lattice's memory is
+/// checked before it is made, a list's or a CSV file's once read.
+fn particle_inits(case: &Case, comm: &Comm) -> Result<Vec<ParticleInit>, TalusError> {
+    let inits = match &case.particles.source {
+        ParticleSource::Lattice(l) => {
+            checks::memory(case, l.count, comm)?;
+            return Ok(generate::lattice_cloud(l));
+        }
+        ParticleSource::Csv(f) => generate::read_csv(&case.resolve(f))?,
+        ParticleSource::List(list) => list_inits(&case.path.display().to_string(), list)?,
+    };
+    checks::memory(case, inits.len(), comm)?;
+    Ok(inits)
+}
+
+/// Particles given one by one in `particles.list`, checked (radius, finite vectors, unique ids).
+fn list_inits(path: &str, list: &[ParticleEntry]) -> Result<Vec<ParticleInit>, TalusError> {
+    let mut seen = std::collections::HashSet::new();
+    list.iter()
+        .enumerate()
+        .map(|(k, e)| {
+            if !(e.radius > 0.0 && e.radius.is_finite()) {
+                return Err(TalusError::Input(format!("{path}: particles.list[{k}].radius = {}: a radius must be positive", e.radius)));
+            }
+            for (key, v) in [("position", e.position), ("velocity", e.velocity), ("spin", e.spin)] {
+                if v.iter().any(|x| !x.is_finite()) {
+                    return Err(TalusError::Input(format!(
+                        "{path}: particles.list[{k}].{key} = {v:?}: every component must be a finite number"
+                    )));
+                }
+            }
+            if !seen.insert(e.id) {
+                return Err(TalusError::Input(format!("{path}: particles.list[{k}].id = {} appears twice", e.id)));
+            }
+            Ok(ParticleInit {
+                id: e.id,
+                pos: Vec3::from(e.position),
+                vel: Vec3::from(e.velocity),
+                omega: Vec3::from(e.spin),
+                radius: e.radius,
+            })
+        })
+        .collect()
+}
+
+/// The walls of a case, in the order the case gives them.
+fn build_walls(case: &Case) -> Result<Vec<Wall>, TalusError> {
+    let mut walls = Vec::new();
+    for w in &case.walls {
+        walls.push(Wall {
+            name: w.name.clone(),
+            shape: wall_shape(case, &w.shape)?,
+            material: case.material_index(&w.material, "wall.material")?,
+            velocity: Vec3::from(w.velocity),
+            active: true,
+            remove_at: w.remove_at,
+            force: Vec3::zeros(),
+            torque: Vec3::zeros(),
+            load: [0; 6],
+        });
+    }
+    Ok(walls)
+}
+
+/// A wall's geometry from the shape the case gives (an STL file is read here).
+fn wall_shape(case: &Case, shape: &WallShape) -> Result<Shape, TalusError> {
+    Ok(match shape {
+        WallShape::Plane(pl) => Shape::Plane(Plane { point: Vec3::from(pl.point), normal: Vec3::from(pl.normal).normalize() }),
+        WallShape::Disc(d) => Shape::Disc(Disc { center: Vec3::from(d.center), radius: d.radius }),
+        WallShape::Segment(s) => Shape::Segments(Segments { segs: vec![[Vec3::from(s.from), Vec3::from(s.to)]] }),
+        WallShape::Box(b) => {
+            let c = |x: f64, y: f64| Vec3::new(x, y, 0.0);
+            let (l, h) = (b.lo, b.hi);
+            let k = [c(l[0], l[1]), c(h[0], l[1]), c(h[0], h[1]), c(l[0], h[1])];
+            Shape::Segments(Segments { segs: (0..4).map(|i| [k[i], k[(i + 1) % 4]]).collect() })
+        }
+        WallShape::Stl(f) => Shape::Mesh(Mesh::from_stl(&case.resolve(f))?),
+    })
 }

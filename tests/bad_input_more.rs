@@ -351,3 +351,24 @@ fn every_shipped_case_and_drag_bed_passes_the_input_checks() {
         }
     }
 }
+
+#[test]
+fn a_case_giving_two_or_none_of_a_choice_names_the_line_and_what_it_gave() {
+    for (edit, msg) in [
+        (
+            ("timestep = 5e-6", "timestep = 5e-6\ntimestep_rayleigh_fraction = 0.1"),
+            "simulation: timestep = 0.000005 and timestep_rayleigh_fraction = 0.1: give exactly one of simulation.timestep and simulation.timestep_rayleigh_fraction",
+        ),
+        (
+            (SPHERE, "csv = \"x.csv\"\nlist = []"),
+            "particles: 2 particle sources: give exactly one of particles.csv, particles.lattice, particles.list",
+        ),
+        (
+            (PLATE, "stl = \"a.stl\"\nplane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }"),
+            "wall.plate: shapes given: [plane, stl]: give exactly one of plane, stl, disc, segment and box",
+        ),
+    ] {
+        let err = refused(&case_text("SC-wall.toml", &[edit]), &[]);
+        assert!(err.starts_with("talus: error: DIR/bad.toml, line ") && err.ends_with(&format!(": {msg}\n")), "{err}");
+    }
+}
