@@ -94,80 +94,10 @@ impl Simulation {
         // every convention option, resolved in one place
         let opts = crate::contact::conventions::resolve(&case.contact);
         let table = PairTable::new(&case.materials, opts.mixing);
-        let pmat = case.material_index(&case.particles.material, "particles.material")?;
-        let mat = &case.materials[pmat as usize];
-
-        let inits = particle_inits(&case, &comm)?;
-        if case.simulation.dimension == Dimension::Two {
-            // 2D (as LIGGGHTS `dimension 2`): spheres moving in the x-y plane, spinning about z
-            if let Some(i) = inits.iter().find(|i| i.pos.z != 0.0 || i.vel.z != 0.0 || i.omega.x != 0.0 || i.omega.y != 0.0) {
-                return Err(TalusError::Input(format!(
-                    "{path}: particle id {}: position {:?}, velocity {:?}, spin {:?}: in 2D (simulation.dimension = \"2\") particles lie in z = 0, move in the x-y plane and spin about z",
-                    i.id, i.pos.as_slice(), i.vel.as_slice(), i.omega.as_slice()
-                )));
-            }
-        }
-        let mut p = Particles::default();
-        for i in &inits {
-            p.push_sphere(i, mat.density, pmat);
-        }
-        p.sort_by_id();
-        // ellipses and clumps (dumbbells) run in 2D, with Verlet, on one rank
-        let serial_2d_verlet = |key: &str, what: &str| {
-            if case.simulation.dimension != Dimension::Two || case.simulation.integrator != IntegratorKind::Verlet {
-                return Err(TalusError::Input(format!("{path}: {key}: {what} need simulation.dimension = \"2\" and the verlet integrator")));
-            }
-            if comm.size() > 1 {
-                return Err(TalusError::Input(format!("{path}: {key}: {what} run on one rank only (this run has {})", comm.size())));
-            }
-            Ok(())
-        };
-        if !case.particles.ellipses.is_empty() {
-            let key = "particles.ellipses";
-            serial_2d_verlet(key, "ellipses")?;
-            let in_clump: std::collections::HashSet<u64> = case.particles.clumps.iter().flatten().copied().collect();
-            for (k, e) in case.particles.ellipses.iter().enumerate() {
-                let i = p.id.binary_search(&e.id).map_err(|_| {
-                    TalusError::Input(format!("{path}: {key}[{k}].id = {}: no particle with this id", e.id))
-                })?;
-                if p.ellipse[i] {
-                    return Err(TalusError::Input(format!("{path}: {key}[{k}].id = {}: listed twice", e.id)));
-                }
-                if in_clump.contains(&e.id) {
-                    return Err(TalusError::Input(format!("{path}: {key}[{k}].id = {}: a clump member cannot be an ellipse", e.id)));
-                }
-                if !(e.aspect_ratio >= 1.0 && e.aspect_ratio <= 10.0) {
-                    return Err(TalusError::Input(format!(
-                        "{path}: {key}[{k}].aspect_ratio = {}: must be in [1, 10] (a/b, a the major semi-axis)",
-                        e.aspect_ratio
-                    )));
-                }
-                if !e.angle.is_finite() {
-                    return Err(TalusError::Input(format!("{path}: {key}[{k}].angle = {}: must be a finite number", e.angle)));
-                }
-                p.make_ellipse(i, e.aspect_ratio, e.angle);
-            }
-        }
-
-        // time step against the Rayleigh time of the smallest particle (an
-        // ellipse counts with its minor semi-axis)
-        let rmin = p.minor.iter().cloned().fold(f64::INFINITY, f64::min);
-        let tr = rayleigh_time(rmin, mat.density, mat.shear_modulus(), mat.poisson_ratio);
-        let s = &case.simulation;
-        let dt = match s.timestep {
-            TimeStep::Seconds(dt) => dt,
-            TimeStep::RayleighFraction(f) => f * tr,
-        };
-        if dt > 0.3 * tr && !s.force_timestep {
-            return Err(TalusError::Input(format!(
-                "{path}: simulation.timestep = {dt:.4e} s is {:.0}% of the Rayleigh time {tr:.4e} s of the smallest particle (radius {rmin:.4e} m); the limit is 30% (set simulation.force_timestep = true to run anyway)",
-                100.0 * dt / tr
-            )));
-        }
-        checks::contact_period(&case, &p, dt)?;
-
+        let mut p = build_particles(&case, &comm)?;
+        let (dt, tr, rmin) = time_step(&case, &p)?;
         let walls = build_walls(&case)?;
-
+        let s = &case.simulation;
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
         let set = Settings {
             dt,
@@ -181,67 +111,12 @@ impl Simulation {
         let mut nl = NeighborList::new(skin);
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
-        // initial overlaps
-        let tol = case.particles.overlap_tolerance;
-        for &(a, b) in &nl.pairs {
-            let (a, b) = (a as usize, b as usize);
-            let ov = if p.ellipse[a] || p.ellipse[b] {
-                crate::contact::ellipse::contact(&p.ellipse_of(a), &p.ellipse_of(b)).map_or(0.0, |c| c.overlap)
-            } else {
-                p.radius[a] + p.radius[b] - (p.pos[a] - p.pos[b]).norm()
-            };
-            if ov > tol * p.radius[a].min(p.radius[b]) {
-                return Err(TalusError::Input(format!(
-                    "{path}: particles {} and {} overlap by {ov:.4e} m initially, more than particles.overlap_tolerance = {tol} of the smaller radius",
-                    p.id[a], p.id[b]
-                )));
-            }
-        }
+        check_initial_overlaps(&case, &p, &nl)?;
         checks::wall_overlaps(&case, &p, &walls)?;
-        // clumps (dumbbells)
-        let mut clumps = Clumps::default();
-        if !case.particles.clumps.is_empty() {
-            let key = "particles.clumps";
-            serial_2d_verlet(key, "clumps (dumbbells)")?;
-            let mut seen = std::collections::HashSet::new();
-            let mut pairs = Vec::new();
-            for (k, &[a, b]) in case.particles.clumps.iter().enumerate() {
-                let mut idx = [0usize; 2];
-                for (j, id) in [a, b].into_iter().enumerate() {
-                    idx[j] = p.id.binary_search(&id).map_err(|_| {
-                        TalusError::Input(format!("{path}: {key}[{k}] = [{a}, {b}]: no particle with id {id}"))
-                    })?;
-                    if !seen.insert(id) {
-                        return Err(TalusError::Input(format!("{path}: {key}[{k}] = [{a}, {b}]: particle {id} is in two clumps")));
-                    }
-                }
-                pairs.push(idx);
-            }
-            clumps = Clumps::new(&mut p, &pairs);
-        }
+        let clumps = build_clumps(&case, &comm, &mut p)?;
         let pe0 = p.potential_energy(set.sweep.gravity);
         let analysis = Analysis::new(&case, &p, &walls)?;
-
-        // decomposition: equal particle counts per box
-        let nranks = comm.size();
-        let ext = domain.hi - domain.lo;
-        let grid = case.parallel.grid.unwrap_or_else(|| choose_grid(nranks, ext));
-        if grid.iter().product::<usize>() != nranks {
-            return Err(TalusError::Input(format!(
-                "{path}: parallel.grid = {grid:?}: {} boxes for {nranks} MPI ranks; the product must equal the number of ranks",
-                grid.iter().product::<usize>()
-            )));
-        }
-        let mut dec = Decomposition::new(grid, domain.lo, domain.hi);
-        dec.fit(&Comm::Serial, &p.pos, &vec![1.0; p.len()]);
-        let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
-        let par_case = &case.parallel;
-        let balance = BalanceSettings {
-            mode: par_case.balance,
-            tolerance: par_case.imbalance_percent / 100.0,
-            interval: par_case.balance_interval,
-        };
-        let mut par = Parallel::new(comm, dec, 2.0 * rmax + skin, balance);
+        let mut par = build_parallel(&case, comm, &p, &domain, skin)?;
         let mut gear = GearState::default();
         let mut hist = History::default();
         par.take_own(&mut p, &mut gear, &mut hist);
@@ -608,4 +483,167 @@ fn wall_shape(case: &Case, shape: &WallShape) -> Result<Shape, TalusError> {
         }
         WallShape::Stl(f) => Shape::Mesh(Mesh::from_stl(&case.resolve(f))?),
     })
+}
+
+/// Ellipses and clumps (dumbbells) run in 2D, with Verlet, on one rank.
+fn serial_2d_verlet(case: &Case, comm: &Comm, key: &str, what: &str) -> Result<(), TalusError> {
+    let path = case.path.display();
+    if case.simulation.dimension != Dimension::Two || case.simulation.integrator != IntegratorKind::Verlet {
+        return Err(TalusError::Input(format!("{path}: {key}: {what} need simulation.dimension = \"2\" and the verlet integrator")));
+    }
+    if comm.size() > 1 {
+        return Err(TalusError::Input(format!("{path}: {key}: {what} run on one rank only (this run has {})", comm.size())));
+    }
+    Ok(())
+}
+
+/// Every particle of the case (all ranks hold all of them until the
+/// decomposition keeps each rank's own), in id order, ellipses made.
+fn build_particles(case: &Case, comm: &Comm) -> Result<Particles, TalusError> {
+    let path = case.path.display();
+    let pmat = case.material_index(&case.particles.material, "particles.material")?;
+    let mat = &case.materials[pmat as usize];
+    let inits = particle_inits(case, comm)?;
+    if case.simulation.dimension == Dimension::Two {
+        // 2D (as LIGGGHTS `dimension 2`): spheres moving in the x-y plane, spinning about z
+        if let Some(i) = inits.iter().find(|i| i.pos.z != 0.0 || i.vel.z != 0.0 || i.omega.x != 0.0 || i.omega.y != 0.0) {
+            return Err(TalusError::Input(format!(
+                "{path}: particle id {}: position {:?}, velocity {:?}, spin {:?}: in 2D (simulation.dimension = \"2\") particles lie in z = 0, move in the x-y plane and spin about z",
+                i.id, i.pos.as_slice(), i.vel.as_slice(), i.omega.as_slice()
+            )));
+        }
+    }
+    let mut p = Particles::default();
+    for i in &inits {
+        p.push_sphere(i, mat.density, pmat);
+    }
+    p.sort_by_id();
+    make_ellipses(case, comm, &mut p)?;
+    Ok(p)
+}
+
+/// Turn the particles `particles.ellipses` names into ellipses.
+fn make_ellipses(case: &Case, comm: &Comm, p: &mut Particles) -> Result<(), TalusError> {
+    if case.particles.ellipses.is_empty() {
+        return Ok(());
+    }
+    let path = case.path.display();
+    let key = "particles.ellipses";
+    serial_2d_verlet(case, comm, key, "ellipses")?;
+    let in_clump: std::collections::HashSet<u64> = case.particles.clumps.iter().flatten().copied().collect();
+    for (k, e) in case.particles.ellipses.iter().enumerate() {
+        let i = p
+            .id
+            .binary_search(&e.id)
+            .map_err(|_| TalusError::Input(format!("{path}: {key}[{k}].id = {}: no particle with this id", e.id)))?;
+        if p.ellipse[i] {
+            return Err(TalusError::Input(format!("{path}: {key}[{k}].id = {}: listed twice", e.id)));
+        }
+        if in_clump.contains(&e.id) {
+            return Err(TalusError::Input(format!("{path}: {key}[{k}].id = {}: a clump member cannot be an ellipse", e.id)));
+        }
+        if !(e.aspect_ratio >= 1.0 && e.aspect_ratio <= 10.0) {
+            return Err(TalusError::Input(format!(
+                "{path}: {key}[{k}].aspect_ratio = {}: must be in [1, 10] (a/b, a the major semi-axis)",
+                e.aspect_ratio
+            )));
+        }
+        if !e.angle.is_finite() {
+            return Err(TalusError::Input(format!("{path}: {key}[{k}].angle = {}: must be a finite number", e.angle)));
+        }
+        p.make_ellipse(i, e.aspect_ratio, e.angle);
+    }
+    Ok(())
+}
+
+/// The time step (s), the Rayleigh time of the smallest particle (s; an
+/// ellipse counts with its minor semi-axis) and that radius (m); a step above
+/// 30% of the Rayleigh time, or one that resolves the stiffest explicit
+/// contact in fewer than 20 steps, is refused unless forced.
+fn time_step(case: &Case, p: &Particles) -> Result<(f64, f64, f64), TalusError> {
+    let mat = &case.materials[case.material_index(&case.particles.material, "particles.material")? as usize];
+    let rmin = p.minor.iter().cloned().fold(f64::INFINITY, f64::min);
+    let tr = rayleigh_time(rmin, mat.density, mat.shear_modulus(), mat.poisson_ratio);
+    let s = &case.simulation;
+    let dt = match s.timestep {
+        TimeStep::Seconds(dt) => dt,
+        TimeStep::RayleighFraction(f) => f * tr,
+    };
+    if dt > 0.3 * tr && !s.force_timestep {
+        return Err(TalusError::Input(format!(
+            "{}: simulation.timestep = {dt:.4e} s is {:.0}% of the Rayleigh time {tr:.4e} s of the smallest particle (radius {rmin:.4e} m); the limit is 30% (set simulation.force_timestep = true to run anyway)",
+            case.path.display(),
+            100.0 * dt / tr
+        )));
+    }
+    checks::contact_period(case, p, dt)?;
+    Ok((dt, tr, rmin))
+}
+
+/// No two particles may start overlapping by more than `particles.overlap_tolerance`.
+fn check_initial_overlaps(case: &Case, p: &Particles, nl: &NeighborList) -> Result<(), TalusError> {
+    let tol = case.particles.overlap_tolerance;
+    for &(a, b) in &nl.pairs {
+        let (a, b) = (a as usize, b as usize);
+        let ov = if p.ellipse[a] || p.ellipse[b] {
+            crate::contact::ellipse::contact(&p.ellipse_of(a), &p.ellipse_of(b)).map_or(0.0, |c| c.overlap)
+        } else {
+            p.radius[a] + p.radius[b] - (p.pos[a] - p.pos[b]).norm()
+        };
+        if ov > tol * p.radius[a].min(p.radius[b]) {
+            return Err(TalusError::Input(format!(
+                "{}: particles {} and {} overlap by {ov:.4e} m initially, more than particles.overlap_tolerance = {tol} of the smaller radius",
+                case.path.display(),
+                p.id[a],
+                p.id[b]
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The rigid clumps (dumbbells) `particles.clumps` names.
+fn build_clumps(case: &Case, comm: &Comm, p: &mut Particles) -> Result<Clumps, TalusError> {
+    if case.particles.clumps.is_empty() {
+        return Ok(Clumps::default());
+    }
+    let path = case.path.display();
+    let key = "particles.clumps";
+    serial_2d_verlet(case, comm, key, "clumps (dumbbells)")?;
+    let mut seen = std::collections::HashSet::new();
+    let mut pairs = Vec::new();
+    for (k, &[a, b]) in case.particles.clumps.iter().enumerate() {
+        let mut idx = [0usize; 2];
+        for (j, id) in [a, b].into_iter().enumerate() {
+            idx[j] = p
+                .id
+                .binary_search(&id)
+                .map_err(|_| TalusError::Input(format!("{path}: {key}[{k}] = [{a}, {b}]: no particle with id {id}")))?;
+            if !seen.insert(id) {
+                return Err(TalusError::Input(format!("{path}: {key}[{k}] = [{a}, {b}]: particle {id} is in two clumps")));
+            }
+        }
+        pairs.push(idx);
+    }
+    Ok(Clumps::new(p, &pairs))
+}
+
+/// The parallel runtime: the grid (the case's, or the one with the least cut
+/// area), planes giving every box the same particle count, balancing settings.
+fn build_parallel(case: &Case, comm: Rc<Comm>, p: &Particles, domain: &Domain, skin: f64) -> Result<Parallel, TalusError> {
+    let nranks = comm.size();
+    let grid = case.parallel.grid.unwrap_or_else(|| choose_grid(nranks, domain.hi - domain.lo));
+    if grid.iter().product::<usize>() != nranks {
+        return Err(TalusError::Input(format!(
+            "{}: parallel.grid = {grid:?}: {} boxes for {nranks} MPI ranks; the product must equal the number of ranks",
+            case.path.display(),
+            grid.iter().product::<usize>()
+        )));
+    }
+    let mut dec = Decomposition::new(grid, domain.lo, domain.hi);
+    dec.fit(&Comm::Serial, &p.pos, &vec![1.0; p.len()]);
+    let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
+    let pc = &case.parallel;
+    let balance = BalanceSettings { mode: pc.balance, tolerance: pc.imbalance_percent / 100.0, interval: pc.balance_interval };
+    Ok(Parallel::new(comm, dec, 2.0 * rmax + skin, balance))
 }
