@@ -8,7 +8,6 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::path::Path;
 use talus::case::Case;
-use talus::forces::compute_forces;
 use talus::sim::Simulation;
 
 fn h1_small_settled() -> Simulation {
@@ -17,7 +16,7 @@ fn h1_small_settled() -> Simulation {
     let case = Case::load(&path).unwrap();
     let mut sim = Simulation::new(case).unwrap();
     // fill until the pile has settled (the KE criterion), as the fill phase does
-    while sim.state.phase == 0 && sim.state.settle_end.is_none() {
+    while sim.phase() == 0 && sim.state().settle_end.is_none() {
         sim.step().unwrap();
         sim.advance_phase().unwrap();
     }
@@ -70,14 +69,11 @@ duration = 100.0
 
 fn bench_h1(c: &mut Criterion) {
     let mut sim = h1_small_settled();
-    let n = sim.state.p.len() as u64;
+    let n = sim.particles().len() as u64;
     let mut g = c.benchmark_group("h1_small_settled");
     g.throughput(Throughput::Elements(n));
     g.bench_function("force_sweep", |b| {
-        b.iter(|| {
-            let st = &mut sim.state;
-            compute_forces(&sim.set.sweep, &mut st.p, &mut st.walls, &mut st.nl, &sim.table)
-        })
+        b.iter(|| sim.force_sweep())
     });
     g.bench_function("full_step", |b| b.iter(|| sim.step().unwrap()));
     g.finish();
@@ -89,7 +85,7 @@ fn bench_scaling(c: &mut Criterion) {
     // 20 layers; 5k, 20k, 50k, 100k particles
     for side in [16usize, 32, 50, 71] {
         let mut sim = packed_bed(side, 20);
-        let n = sim.state.p.len();
+        let n = sim.particles().len();
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| b.iter(|| sim.step().unwrap()));
     }

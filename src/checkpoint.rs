@@ -51,7 +51,7 @@ fn codec() -> impl Options {
 /// Hash of the case text, without its `[parallel]` section: how the work is
 /// split does not change results, so a checkpoint restarts under any.
 pub fn case_hash(sim: &Simulation) -> u64 {
-    let mut case = sim.case.clone();
+    let mut case = sim.case().clone();
     case.parallel = Default::default();
     let text = toml::to_string(&case).unwrap_or_default();
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
@@ -117,10 +117,10 @@ fn pause_for_tests(w: &mut impl Write) -> std::io::Result<()> {
 
 /// All ranks write one checkpoint together (a collective: gathered, rank 0 writes).
 pub fn write(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
-    let st = &sim.state;
-    let (recs, rows) = sim.par.gather_all(&st.p, &st.gear);
-    let history = sim.par.gather_history(st.nl.take_history(&st.p));
-    let result = if sim.par.comm.is_root() {
+    let st = sim.state();
+    let (recs, rows) = sim.parallel().gather_all(&st.p, &st.gear);
+    let history = sim.parallel().gather_history(st.nl.take_history(&st.p));
+    let result = if sim.parallel().comm.is_root() {
         let mut gear = GearState { initialised: st.gear.initialised, ..Default::default() };
         gear.set_all(&rows);
         let state = State {
@@ -139,7 +139,7 @@ pub fn write(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
             clumps: st.clumps.clone(),
             analysis: st.analysis.clone(),
         };
-        let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.par.size(), state, history };
+        let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.parallel().size(), state, history };
         encode(&ck).and_then(|bytes| {
             write_atomic(path, |w| {
                 let half = bytes.len() / 2;
@@ -151,7 +151,7 @@ pub fn write(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
     } else {
         Ok(())
     };
-    sim.par.collective(result)
+    sim.parallel().collective(result)
 }
 
 /// Read and check a checkpoint file.
@@ -168,19 +168,13 @@ pub fn read(sim: &mut Simulation, path: &Path) -> Result<(), TalusError> {
         return Err(TalusError::Input(format!(
             "{}: the checkpoint was written for a different case than {}",
             path.display(),
-            sim.case.path.display()
+            sim.case().path.display()
         )));
     }
     if ck.state.p.len() as u64 != sim.particle_count() {
         return Err(TalusError::Input(format!("{}: particle count differs from the case", path.display())));
     }
-    let mut st = ck.state;
-    let mut hist = ck.history;
-    sim.par.refit_all(&st.p.pos);
-    sim.par.take_own(&mut st.p, &mut st.gear, &mut hist);
-    let hist = sim.par.migrate(&mut st.p, &mut st.gear, hist);
-    st.nl.build_with(&st.p, &st.walls, &hist);
-    sim.state = st;
+    sim.restore(ck.state, ck.history);
     Ok(())
 }
 
@@ -191,7 +185,7 @@ mod tests {
     fn sample() -> Vec<u8> {
         let case = crate::case::Case::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/SC-pair.toml")).unwrap();
         let sim = Simulation::new(case).unwrap();
-        let ck = Checkpoint { case_hash: case_hash(&sim), ranks: 1, state: sim.state.clone(), history: History::default() };
+        let ck = Checkpoint { case_hash: case_hash(&sim), ranks: 1, state: sim.state().clone(), history: History::default() };
         encode(&ck).unwrap()
     }
 

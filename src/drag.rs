@@ -356,7 +356,7 @@ impl DragSeries {
             cylinder,
             speed,
             n_drag,
-            start_step: sim.state.step,
+            start_step: sim.step_count(),
             series: Vec::with_capacity(n_drag as usize),
             snapshots: Vec::new(),
         };
@@ -365,20 +365,20 @@ impl DragSeries {
     }
 
     fn snapshot(&mut self, sim: &Simulation, s: f64) {
-        let p = &sim.state.p;
+        let p = sim.particles();
         self.snapshots.push((s, (0..p.len()).map(|i| (p.id[i], p.pos[i].x, p.pos[i].y, p.radius[i], p.minor[i], p.angle[i])).collect()));
     }
 }
 
 impl Observer for DragSeries {
     fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
-        let k = sim.state.step - self.start_step;
-        let s = self.speed * sim.set.dt * k as f64;
+        let k = sim.step_count() - self.start_step;
+        let s = self.speed * sim.dt() * k as f64;
         if k == self.n_drag / 2 || k == self.n_drag {
             self.snapshot(sim, s);
         }
         // force of the granules on the cylinder, against its motion
-        let f = sim.state.walls[self.cylinder].force;
+        let f = sim.walls()[self.cylinder].force;
         self.series.push((s, -f.dot(&Vec3::new(0.0, self.speed, 0.0)) / self.speed));
         Ok(())
     }
@@ -389,13 +389,12 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let d = &dc.drag;
     let (case, radii) = dc.bed_case(seed)?;
     let mut sim = Simulation::new(case)?;
-    let dt = sim.set.dt;
-    let cyl = sim.state.walls.iter().position(|w| w.name == "cylinder").expect("made above");
+    let dt = sim.dt();
+    let cyl = sim.wall_index("cylinder").expect("made above");
     // growth (friction as set)
     let mut grow_mat = dc.material.clone();
     grow_mat.friction = d.growth_friction.unwrap_or(dc.material.friction);
-    let table = sim.table.clone();
-    sim.table = PairTable::new(&[grow_mat], Mixing::Liggghts);
+    let table = sim.replace_pair_table(PairTable::new(&[grow_mat], Mixing::Liggghts));
     let n_grow = (d.growth_time / dt).ceil() as u64;
     for k in 1..=n_grow {
         let s = d.growth_from + (1.0 - d.growth_from) * k as f64 / n_grow as f64;
@@ -403,13 +402,13 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
         sim.set_radii(&r);
         sim.step()?;
     }
-    sim.table = table;
+    sim.replace_pair_table(table);
     for _ in 0..(d.settle_time / dt).ceil() as u64 {
         sim.step()?;
     }
     // drag: the series is an observer of the steps
     let v = Vec3::new(0.0, d.cylinder_speed, 0.0);
-    sim.state.walls[cyl].velocity = v;
+    sim.set_wall_velocity(cyl, v);
     let n_drag = (d.travel / d.cylinder_speed / dt).ceil() as u64;
     let mut drag = DragSeries::new(&sim, cyl, d.cylinder_speed, n_drag);
     for _ in 0..n_drag {
@@ -419,7 +418,7 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let [a, b] = d.average_window;
     let win: Vec<f64> = series.iter().filter(|(s, _)| *s >= a && *s <= b).map(|x| x.1).collect();
     let mean_drag = win.iter().sum::<f64>() / win.len().max(1) as f64;
-    Ok(BedResult { seed, series, mean_drag, steps: sim.state.step, state_hash: sim.state_hash(), snapshots })
+    Ok(BedResult { seed, series, mean_drag, steps: sim.step_count(), state_hash: sim.state_hash(), snapshots })
 }
 
 /// Run a drag case over its beds; writes `summary.json` (`mean_drag_n`,

@@ -123,7 +123,7 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             let r = run_on(c, &opts, comm)?;
             if let Some(sig) = r.interrupted {
                 if root {
-                    let st = &r.sim.state;
+                    let st = r.sim.state();
                     eprintln!(
                         "talus: stopped by {} at step {} (t = {:.6e} s); checkpoint and outputs written in {}; continue with: talus run {} --out {} --restart {}",
                         talus::signals::name(sig),
@@ -168,7 +168,7 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
         Cmd::Cloud { case, out } => {
             let c = Case::load(&case)?;
             let sim = talus::sim::Simulation::new(c)?;
-            let inits = sim.state.p.to_inits();
+            let inits = sim.particles().to_inits();
             talus::generate::write_csv(&out, &inits).map_err(|e| TalusError::io(format!("writing {}", out.display()), e))?;
             println!("wrote {} particles to {}", inits.len(), out.display());
             Ok(ExitCode::SUCCESS)

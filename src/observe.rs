@@ -1,4 +1,4 @@
-//! Bookkeeping as observers the driver registers: probes, the per-rank log,
+//! Bookkeeping as observers the driver registers: the analysis, probes, the per-rank log,
 //! snapshots, interval checkpoints, the progress bar (here), the drag series
 //! (`crate::drag`). The time step (`Simulation::step`) knows none of them.
 //!
@@ -8,6 +8,7 @@
 //! and adds the observer's figures to the summary; after a failure, `flush`
 //! saves what was written.
 
+use crate::analysis::Analysis;
 use crate::checkpoint;
 use crate::error::TalusError;
 use crate::output::{Probes, Snapshots};
@@ -18,7 +19,7 @@ use std::time::Instant;
 
 /// Something the driver calls after every step.
 pub trait Observer {
-    /// After a step that went from `t_prev` to `sim.state.time`.
+    /// After a step that went from `t_prev` to `sim.time()`.
     fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError>;
     /// At the end of the run: flush, and add figures to the summary.
     fn finish(&mut self, _sim: &mut Simulation, _summary: &mut Map<String, Value>) -> Result<(), TalusError> {
@@ -28,11 +29,15 @@ pub trait Observer {
     fn flush(&mut self) -> Result<(), TalusError> {
         Ok(())
     }
+    /// When phase `name` has ended (before the phase-end checkpoint is written).
+    fn phase_ended(&mut self, _sim: &mut Simulation, _name: &str) -> Result<(), TalusError> {
+        Ok(())
+    }
 }
 
 /// Advance one step, then let every observer see it (in order).
 pub fn step(sim: &mut Simulation, observers: &mut [&mut dyn Observer]) -> Result<(), TalusError> {
-    let t_prev = sim.state.time;
+    let t_prev = sim.time();
     sim.step()?;
     for o in observers.iter_mut() {
         o.after_step(sim, t_prev)?;
@@ -46,8 +51,58 @@ pub fn crossed(t_prev: f64, t: f64, interval: f64, dt: f64) -> bool {
     ((t + 0.5 * dt) / interval).floor() > ((t_prev + 0.5 * dt) / interval).floor()
 }
 
-/// `probes.csv` every `output.interval`; the analysis samples the mass below
-/// the probe plane at the same times.
+/// The case's `[analysis]` (`crate::analysis`): records after every step,
+/// samples the mass below `output.mass_below_z` at every output interval, marks
+/// phase ends, and puts its figures into the summary. Its running figures live
+/// in the simulation's state, so checkpoints save them.
+pub struct AnalysisLog;
+
+impl AnalysisLog {
+    /// Record the current state (a collective: the tracked particles are
+    /// gathered from whichever ranks own them).
+    pub fn record(&mut self, sim: &mut Simulation) {
+        let ids = sim.analysis().ids();
+        let tracked = if ids.is_empty() { Vec::new() } else { sim.tracked(&ids) };
+        let mut a = std::mem::replace(sim.analysis_mut(), Analysis::None);
+        a.record(sim.state(), &tracked);
+        *sim.analysis_mut() = a;
+    }
+
+    /// Sample the mass below the probe plane (0 without one; a collective).
+    pub fn sample(&mut self, sim: &mut Simulation) {
+        let mb = sim.case().output.mass_below_z.map(|z| sim.mass_below(z)).unwrap_or(0.0);
+        let t = sim.time();
+        sim.analysis_mut().sample(t, mb);
+    }
+
+    /// The first record and sample of a run that starts at step 0.
+    pub fn start(&mut self, sim: &mut Simulation) {
+        self.record(sim);
+        self.sample(sim);
+    }
+}
+
+impl Observer for AnalysisLog {
+    fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
+        self.record(sim);
+        if crossed(t_prev, sim.time(), sim.case().output.interval, sim.dt()) {
+            self.sample(sim);
+        }
+        Ok(())
+    }
+    fn phase_ended(&mut self, sim: &mut Simulation, name: &str) -> Result<(), TalusError> {
+        let t = sim.time();
+        sim.analysis_mut().phase_end(name, t);
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, summary: &mut Map<String, Value>) -> Result<(), TalusError> {
+        let tracked = sim.tracked(&sim.analysis().ids());
+        summary.extend(sim.analysis().figures(&tracked));
+        Ok(())
+    }
+}
+
+/// `probes.csv` every `output.interval`.
 pub struct ProbeLog {
     probes: Probes,
 }
@@ -59,22 +114,20 @@ impl ProbeLog {
 
     /// The row of the current state (a collective).
     pub fn write(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
-        let mb = sim.par.collective(self.probes.write(sim))?;
-        let t = sim.state.time;
-        sim.state.analysis.sample(t, mb.unwrap_or(0.0));
+        sim.parallel().collective(self.probes.write(sim))?;
         Ok(())
     }
 }
 
 impl Observer for ProbeLog {
     fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
-        if crossed(t_prev, sim.state.time, sim.case.output.interval, sim.set.dt) {
+        if crossed(t_prev, sim.time(), sim.case().output.interval, sim.dt()) {
             self.write(sim)?;
         }
         Ok(())
     }
     fn finish(&mut self, sim: &mut Simulation, _: &mut Map<String, Value>) -> Result<(), TalusError> {
-        sim.par.collective(self.probes.flush())
+        sim.parallel().collective(self.probes.flush())
     }
     fn flush(&mut self) -> Result<(), TalusError> {
         self.probes.flush()
@@ -94,18 +147,18 @@ impl SnapshotLog {
 
     /// Gather every particle and let rank 0 write a snapshot (a collective).
     pub fn write(&mut self, sim: &Simulation) -> Result<(), TalusError> {
-        let (recs, _) = sim.par.gather_all(&sim.state.p, &sim.state.gear);
+        let (recs, _) = sim.parallel().gather_all(sim.particles(), &sim.state().gear);
         let r = match self.snaps.as_mut() {
-            Some(s) => s.write(&sim.state, &recs),
+            Some(s) => s.write(sim.state(), &recs),
             None => Ok(()),
         };
-        sim.par.collective(r)
+        sim.parallel().collective(r)
     }
 }
 
 impl Observer for SnapshotLog {
     fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
-        if crossed(t_prev, sim.state.time, self.interval, sim.set.dt) {
+        if crossed(t_prev, sim.time(), self.interval, sim.dt()) {
             self.write(sim)?;
         }
         Ok(())
@@ -126,7 +179,7 @@ impl Checkpoints {
 
 impl Observer for Checkpoints {
     fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
-        if crossed(t_prev, sim.state.time, self.interval, sim.set.dt) {
+        if crossed(t_prev, sim.time(), self.interval, sim.dt()) {
             checkpoint::write(sim, &self.path)?;
         }
         Ok(())
@@ -143,23 +196,23 @@ pub struct Progress {
 
 impl Progress {
     pub fn new(sim: &Simulation, particles: f64) -> Progress {
-        let planned = (sim.planned_time() / sim.set.dt).ceil() as u64;
+        let planned = (sim.planned_time() / sim.dt()).ceil() as u64;
         let bar = indicatif::ProgressBar::new(planned);
         bar.set_style(
             indicatif::ProgressStyle::with_template("{bar:30} step {pos}/{len}  {msg}  ETA {eta}").expect("a valid template"),
         );
-        bar.set_position(sim.state.step);
-        Progress { bar, start: Instant::now(), first_step: sim.state.step, particles }
+        bar.set_position(sim.step_count());
+        Progress { bar, start: Instant::now(), first_step: sim.step_count(), particles }
     }
 }
 
 impl Observer for Progress {
     fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
-        let steps = sim.state.step - self.first_step;
+        let steps = sim.step_count() - self.first_step;
         if steps % 200 == 0 {
             let rate = self.particles * steps as f64 / self.start.elapsed().as_secs_f64();
-            self.bar.set_position(sim.state.step);
-            self.bar.set_message(format!("t = {:.4} s  {rate:.2e} particle-steps/s", sim.state.time));
+            self.bar.set_position(sim.step_count());
+            self.bar.set_message(format!("t = {:.4} s  {rate:.2e} particle-steps/s", sim.time()));
         }
         Ok(())
     }
@@ -183,17 +236,17 @@ pub struct RankLog {
 impl RankLog {
     pub fn create(dir: &Path, sim: &Simulation, resume: Option<u64>) -> Result<RankLog, TalusError> {
         const HEADER: &str = "time_s,step,phase,rank,owned,ghosts,contacts,compute_s,comm_s,imbalance_time,imbalance_work";
-        let out = if sim.par.comm.is_root() {
+        let out = if sim.parallel().comm.is_root() {
             Some(crate::durable::Series::open(&dir.join("ranks.csv"), HEADER, 1, resume))
         } else {
             None
         };
-        let out = sim.par.collective(out.transpose())?;
+        let out = sim.parallel().collective(out.transpose())?;
         Ok(RankLog { out, per_phase: Vec::new() })
     }
 
     fn write(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
-        let c = sim.par.gather_counters(&sim.state.p);
+        let c = sim.rank_counters();
         let imb = |f: &dyn Fn(&crate::parallel::RankCounters) -> f64| {
             let v: Vec<f64> = c.iter().map(f).collect();
             let mean = v.iter().sum::<f64>() / v.len() as f64;
@@ -214,7 +267,7 @@ impl RankLog {
             for (r, x) in c.iter().enumerate() {
                 w.row(&format!(
                     "{:.9e},{},{phase},{r},{},{},{},{:.6e},{:.6e},{it:.5},{iw:.5}",
-                    sim.state.time, sim.state.step, x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
+                    sim.time(), sim.step_count(), x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
                 ))?;
             }
             w.flush()?;
@@ -225,13 +278,13 @@ impl RankLog {
 
 impl Observer for RankLog {
     fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
-        if crossed(t_prev, sim.state.time, sim.case.output.interval, sim.set.dt) {
+        if crossed(t_prev, sim.time(), sim.case().output.interval, sim.dt()) {
             self.write(sim)?;
         }
         Ok(())
     }
     fn finish(&mut self, sim: &mut Simulation, summary: &mut Map<String, Value>) -> Result<(), TalusError> {
-        if sim.par.size() > 1 {
+        if sim.parallel().size() > 1 {
             for (ph, it, iw, n) in &self.per_phase {
                 summary.insert(format!("imbalance_time_{ph}"), json!(it / *n as f64));
                 summary.insert(format!("imbalance_work_{ph}"), json!(iw / *n as f64));

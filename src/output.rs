@@ -24,19 +24,19 @@ impl Probes {
     /// Open `probes.csv` in `dir`: anew, or, with `resume_step` (a restart),
     /// keeping the rows up to that step and appending after them.
     pub fn create(dir: &Path, sim: &Simulation, resume_step: Option<u64>) -> Result<Probes, TalusError> {
-        let o = &sim.case.output;
+        let o = &sim.case().output;
         let found = sim.tracked(&o.track);
         for (&id, r) in o.track.iter().zip(&found) {
             if r.is_none() {
-                return Err(TalusError::Input(format!("{}: output.track: no particle with id {id}", sim.case.path.display())));
+                return Err(TalusError::Input(format!("{}: output.track: no particle with id {id}", sim.case().path.display())));
             }
         }
         let track = o.track.clone();
-        if !sim.par.comm.is_root() {
+        if !sim.parallel().comm.is_root() {
             return Ok(Probes { out: None, mass_below_z: o.mass_below_z, track });
         }
         let mut h = String::from("time_s,step,phase,kinetic_energy_j,contacts");
-        for w in &sim.state.walls {
+        for w in sim.walls() {
             for c in ["x", "y", "z"] {
                 h.push_str(&format!(",{}_force_{c}_n", w.name));
             }
@@ -61,7 +61,7 @@ impl Probes {
 
     /// A collective: every rank calls it; returns the mass below the probe plane.
     pub fn write(&mut self, sim: &Simulation) -> Result<Option<f64>, TalusError> {
-        let st = &sim.state;
+        let st = sim.state();
         let phase = sim.phase_name();
         let ke = sim.kinetic_energy();
         let contacts = sim.contacts();

@@ -6,7 +6,7 @@ use crate::case::Case;
 use crate::checkpoint::{read as read_checkpoint, write as write_checkpoint};
 use crate::durable::write_atomic;
 use crate::error::TalusError;
-use crate::observe::{Checkpoints, Observer, ProbeLog, Progress, RankLog, SnapshotLog};
+use crate::observe::{AnalysisLog, Checkpoints, Observer, ProbeLog, Progress, RankLog, SnapshotLog};
 use crate::output::{Probes, Snapshots};
 use crate::parallel::comm::Comm;
 use crate::sim::Simulation;
@@ -47,36 +47,39 @@ pub fn run_on(case: Case, opts: &RunOptions, comm: Rc<Comm>) -> Result<RunResult
         read_checkpoint(&mut sim, r)?;
     }
     let summary = run_sim(&mut sim, opts)?;
-    let interrupted = sim.par.stop;
+    let interrupted = sim.stop_signal();
     Ok(RunResult { summary, sim, interrupted })
 }
 
 /// The observers of a `talus run` into `out`, in the order they run after each
-/// step: probes, rank log, snapshots, interval checkpoints, progress bar. A
+/// step: analysis, probes, rank log, snapshots, interval checkpoints, progress bar. A
 /// simulation restarted from a checkpoint (step > 0) continues the series
 /// already in `out`: rows and snapshots after the checkpoint's step are
 /// dropped, new ones appended. At step 0 the first probe row and snapshot are
 /// written here.
 fn run_observers(sim: &mut Simulation, out: &Path, progress: bool) -> Result<Vec<Box<dyn Observer>>, TalusError> {
-    let root = sim.par.comm.is_root();
-    let resume = (sim.state.step > 0).then_some(sim.state.step);
-    let mut probes = ProbeLog::new(sim.par.collective(Probes::create(out, sim, resume))?);
+    let root = sim.parallel().comm.is_root();
+    let resume = (sim.step_count() > 0).then_some(sim.step_count());
+    let mut analysis = AnalysisLog;
+    let mut probes = ProbeLog::new(sim.parallel().collective(Probes::create(out, sim, resume))?);
     let ranks = RankLog::create(out, sim, resume)?;
     let mut obs: Vec<Box<dyn Observer>> = Vec::new();
     if resume.is_none() {
+        analysis.start(sim);
         probes.write(sim)?;
     }
+    obs.push(Box::new(analysis));
     obs.push(Box::new(probes));
     obs.push(Box::new(ranks));
-    if let Some(iv) = sim.case.output.snapshot_interval {
-        let snaps = if root { Some(Snapshots::create(out, resume, sim.set.dt)) } else { None };
-        let mut snaps = SnapshotLog::new(sim.par.collective(snaps.transpose())?, iv);
+    if let Some(iv) = sim.case().output.snapshot_interval {
+        let snaps = if root { Some(Snapshots::create(out, resume, sim.dt())) } else { None };
+        let mut snaps = SnapshotLog::new(sim.parallel().collective(snaps.transpose())?, iv);
         if resume.is_none() {
             snaps.write(sim)?;
         }
         obs.push(Box::new(snaps));
     }
-    if let Some(iv) = sim.case.output.checkpoint_interval {
+    if let Some(iv) = sim.case().output.checkpoint_interval {
         obs.push(Box::new(Checkpoints::new(out, iv)));
     }
     if progress && root {
@@ -90,40 +93,43 @@ fn run_observers(sim: &mut Simulation, out: &Path, progress: bool) -> Result<Vec
 /// and returns the summary.
 pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
     let out = &opts.out;
-    let root = sim.par.comm.is_root();
+    let root = sim.parallel().comm.is_root();
     let prepared = std::fs::create_dir_all(out)
         .map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))
         .and_then(|()| if root { remove_stale_failure(out) } else { Ok(()) });
-    sim.par.collective(prepared)?;
+    sim.parallel().collective(prepared)?;
     sim.prepare()?;
     let mut observers = run_observers(sim, out, opts.progress)?;
     let n = sim.particle_count() as f64;
     let start = Instant::now();
-    let first_step = sim.state.step;
+    let first_step = sim.step_count();
     loop {
         // the step limit is checked first, so a checkpoint taken here restarts at
         // exactly the point where an uninterrupted run would go on
-        if opts.max_steps.is_some_and(|m| sim.state.step - first_step >= m) {
+        if opts.max_steps.is_some_and(|m| sim.step_count() - first_step >= m) {
             break;
         }
-        let phase = sim.state.phase;
+        let phase = sim.phase();
         let more = sim.advance_phase()?;
-        if sim.state.phase != phase {
+        if sim.phase() != phase {
             // a checkpoint at the end of each phase (to restart, say, the discharge on another P)
-            let name = sim.case.phases[phase].name.clone();
+            let name = sim.case().phases[phase].name.clone();
+            for o in observers.iter_mut() {
+                o.phase_ended(sim, &name)?;
+            }
             write_checkpoint(sim, &out.join(format!("checkpoint_after_{name}.bin")))?;
         }
         if !more {
             break;
         }
-        let t_prev = sim.state.time;
+        let t_prev = sim.time();
         if let Err(e) = sim.step() {
             return Err(failed(sim, out, &mut observers, e));
         }
         for o in observers.iter_mut() {
             o.after_step(sim, t_prev)?;
         }
-        if sim.par.stop.is_some() {
+        if sim.stop_signal().is_some() {
             // a signal: every rank agreed on this step; the checkpoint and the
             // outputs are written below as at the end of a run
             break;
@@ -131,10 +137,10 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
     }
     let wall = start.elapsed().as_secs_f64();
     if std::env::var_os("TALUS_PROFILE").is_some() {
-        let t = sim.par.timers;
+        let t = sim.parallel().timers;
         eprintln!(
             "talus profile rank {}: migrate+ghosts {:.3} s, list builds {:.3} s, ghost refresh {:.3} s, agree {:.3} s, wall sums {:.3} s, compute since the last output row {:.3} s, of {wall:.3} s",
-            sim.par.rank(), t.migrate, t.list_build, t.ghost_refresh, t.agree, t.wall_sums, t.compute_s
+            sim.parallel().rank(), t.migrate, t.list_build, t.ghost_refresh, t.agree, t.wall_sums, t.compute_s
         );
     }
     let mut summary = Map::new();
@@ -142,28 +148,24 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         o.finish(sim, &mut summary)?;
     }
     write_checkpoint(sim, &out.join("checkpoint.bin"))?;
-    let steps = sim.state.step - first_step;
-    summary.insert("case".into(), json!(sim.case.path.display().to_string()));
+    let steps = sim.step_count() - first_step;
+    summary.insert("case".into(), json!(sim.case().path.display().to_string()));
     summary.insert("particles".into(), json!(n as u64));
-    summary.insert("ranks".into(), json!(sim.par.size()));
-    summary.insert("grid".into(), json!(sim.par.dec.grid()));
-    summary.insert("balance".into(), json!(sim.case.parallel.balance));
-    summary.insert("rebalances".into(), json!(sim.par.rebalances));
-    summary.insert("steps".into(), json!(sim.state.step));
+    summary.insert("ranks".into(), json!(sim.parallel().size()));
+    summary.insert("grid".into(), json!(sim.parallel().dec.grid()));
+    summary.insert("balance".into(), json!(sim.case().parallel.balance));
+    summary.insert("rebalances".into(), json!(sim.parallel().rebalances));
+    summary.insert("steps".into(), json!(sim.step_count()));
     summary.insert("steps_this_run".into(), json!(steps));
-    summary.insert("time_s".into(), json!(sim.state.time));
-    summary.insert("timestep_s".into(), json!(sim.set.dt));
-    summary.insert("rayleigh_time_s".into(), json!(sim.set.rayleigh_time));
-    summary.insert("neighbor_builds".into(), json!(sim.state.nl.builds));
+    summary.insert("time_s".into(), json!(sim.time()));
+    summary.insert("timestep_s".into(), json!(sim.dt()));
+    summary.insert("rayleigh_time_s".into(), json!(sim.rayleigh_time()));
+    summary.insert("neighbor_builds".into(), json!(sim.state().nl.builds));
     summary.insert("wall_clock_s".into(), json!(wall));
     summary.insert("particle_steps_per_s".into(), json!(if wall > 0.0 { n * steps as f64 / wall } else { 0.0 }));
     summary.insert("state_hash".into(), json!(sim.state_hash()));
-    if let Some(sig) = sim.par.stop {
+    if let Some(sig) = sim.stop_signal() {
         summary.insert("stopped_by_signal".into(), json!(crate::signals::name(sig)));
-    }
-    let tracked = sim.tracked(&sim.state.analysis.ids());
-    for (k, v) in sim.state.analysis.figures(&tracked) {
-        summary.insert(k, v);
     }
     let path = out.join("summary.json");
     let written = if root {
@@ -172,7 +174,7 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
     } else {
         Ok(())
     };
-    sim.par.collective(written)?;
+    sim.parallel().collective(written)?;
     Ok(summary)
 }
 
@@ -187,7 +189,7 @@ fn failed(sim: &mut Simulation, out: &Path, observers: &mut [Box<dyn Observer>],
     };
     let flushed: Vec<String> = observers.iter_mut().filter_map(|o| o.flush().err().map(|e| e.to_string())).collect();
     let lost = if flushed.is_empty() { String::new() } else { format!("; {}", flushed.join("; ")) };
-    TalusError::Run(format!("run stopped at step {} (t = {:.6e} s): {e}; {saved}{lost}", sim.state.step, sim.state.time))
+    TalusError::Run(format!("run stopped at step {} (t = {:.6e} s): {e}; {saved}{lost}", sim.step_count(), sim.time()))
 }
 
 /// A failure checkpoint left by an earlier run in this folder would be taken

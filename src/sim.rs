@@ -7,7 +7,12 @@
 //!    more than half the skin;
 //! 4. forces: gravity, pairs in (id_a, id_b) order, walls in order;
 //! 5. integrator second half (Verlet: half kick; Gear: correct);
-//! 6. time advances; analysis and probes record; phase end conditions are checked.
+//! 6. time advances. The driver then calls its observers (analysis, probes, ...,
+//!    `crate::observe`) and checks the phase end conditions (`advance_phase`).
+//!
+//! The fields are private: the driver, the observers, the drag study and the
+//! tests read through accessors (`state`, `particles`, `walls`, `time`, ...) and
+//! change the run only through the few named methods below.
 
 use crate::analysis::Analysis;
 use crate::case::{Case, ParticleEntry, ParticleSource, TimeStep, WallShape};
@@ -65,14 +70,14 @@ pub struct State {
 }
 
 pub struct Simulation {
-    pub case: Case,
-    pub set: Settings,
-    pub table: PairTable,
-    pub state: State,
+    case: Case,
+    set: Settings,
+    table: PairTable,
+    state: State,
     /// Decomposition, ghosts, migration, balancing (one box when serial).
-    pub par: Parallel,
+    par: Parallel,
     /// Global kinetic and potential energy at the last settle check (J).
-    pub energies: (f64, f64),
+    energies: (f64, f64),
 }
 
 /// Rayleigh time of a sphere: pi R sqrt(rho / G) / (0.1631 nu + 0.8766).
@@ -139,6 +144,131 @@ impl Simulation {
             clumps,
         };
         Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0) })
+    }
+
+    /// The case this simulation was built from.
+    pub fn case(&self) -> &Case {
+        &self.case
+    }
+
+    /// Everything that evolves (what a checkpoint saves), read-only.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The parallel runtime: communicator, decomposition, timers (one box when serial).
+    pub fn parallel(&self) -> &Parallel {
+        &self.par
+    }
+
+    /// The time step (s).
+    pub fn dt(&self) -> f64 {
+        self.set.dt
+    }
+
+    /// The Rayleigh time of the smallest particle (s).
+    pub fn rayleigh_time(&self) -> f64 {
+        self.set.rayleigh_time
+    }
+
+    pub fn dimension(&self) -> Dimension {
+        self.set.dim
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// Steps taken since the start of the run (restarts included).
+    pub fn step_count(&self) -> u64 {
+        self.state.step
+    }
+
+    /// Index of the current phase (the number of phases once all are done).
+    pub fn phase(&self) -> usize {
+        self.state.phase
+    }
+
+    /// This rank's particles: the owned ones first, then the ghosts.
+    pub fn particles(&self) -> &Particles {
+        &self.state.p
+    }
+
+    /// The walls, in the case's order.
+    pub fn walls(&self) -> &[Wall] {
+        &self.state.walls
+    }
+
+    /// Index of the wall called `name`.
+    pub fn wall_index(&self, name: &str) -> Option<usize> {
+        self.state.walls.iter().position(|w| w.name == name)
+    }
+
+    /// Touching contacts on this rank at the last force sweep.
+    pub fn local_contacts(&self) -> usize {
+        self.state.contacts
+    }
+
+    /// The running figures of the case's `[analysis]`.
+    pub fn analysis(&self) -> &Analysis {
+        &self.state.analysis
+    }
+
+    /// The analysis, to record into (its figures are saved in checkpoints).
+    pub fn analysis_mut(&mut self) -> &mut Analysis {
+        &mut self.state.analysis
+    }
+
+    /// The signal (SIGINT, SIGTERM) every rank agreed to stop at, if any.
+    pub fn stop_signal(&self) -> Option<i32> {
+        self.par.stop
+    }
+
+    /// Prescribe wall `i`'s velocity (m/s) from the next step on.
+    pub fn set_wall_velocity(&mut self, i: usize, v: Vec3) {
+        self.state.walls[i].velocity = v;
+    }
+
+    /// Add a wall (after the case's); lists are rebuilt at the next step.
+    pub fn add_wall(&mut self, w: Wall) {
+        self.state.walls.push(w);
+        self.state.nl.x_ref.clear();
+    }
+
+    /// Set the velocity of the particle at storage index `i` (m/s).
+    pub fn set_velocity(&mut self, i: usize, v: Vec3) {
+        self.state.p.vel[i] = v;
+    }
+
+    /// Turn clump `k` to `angle` (rad) about its centre; lists are rebuilt at the next step.
+    pub fn set_clump_angle(&mut self, k: usize, angle: f64) {
+        self.state.clumps.angle[k] = angle;
+        self.state.clumps.place(&mut self.state.p);
+        self.state.nl.x_ref.clear();
+    }
+
+    /// Replace the material pair table (for example a frictionless one while a
+    /// bed is grown); returns the old one.
+    pub fn replace_pair_table(&mut self, t: PairTable) -> PairTable {
+        std::mem::replace(&mut self.table, t)
+    }
+
+    /// One force sweep at the current positions, nothing else (for benchmarks);
+    /// returns the touching contacts on this rank.
+    pub fn force_sweep(&mut self) -> usize {
+        self.forces();
+        self.state.contacts
+    }
+
+    /// Continue from a checkpoint's state and contact history: every rank keeps
+    /// its own particles of the global state `st` (a collective).
+    pub fn restore(&mut self, mut st: State, mut hist: History) {
+        self.par.refit_all(&st.p.pos);
+        self.par.take_own(&mut st.p, &mut st.gear, &mut hist);
+        let hist = self.par.migrate(&mut st.p, &mut st.gear, hist);
+        st.nl.build_with(&st.p, &st.walls, &hist);
+        self.state = st;
     }
 
     /// Check the particles and, if any rank needs it, rebuild the lists
@@ -227,6 +357,12 @@ impl Simulation {
         from_fixed(v[0])
     }
 
+    /// Every rank's counters (particles, ghosts, contacts, compute and
+    /// communication time since the last call, which restarts them; a collective).
+    pub fn rank_counters(&mut self) -> Vec<crate::parallel::RankCounters> {
+        self.par.gather_counters(&self.state.p)
+    }
+
     /// Full records of the given particles, wherever they are owned (a collective).
     pub fn tracked(&self, ids: &[u64]) -> Vec<Option<Record>> {
         self.par.gather_ids(&self.state.p, ids)
@@ -242,17 +378,8 @@ impl Simulation {
                 self.state.gear.init(&self.state.p, self.set.dt, self.set.dim);
             }
             self.state.forces_ready = true;
-            self.record();
         }
         Ok(())
-    }
-
-    fn record(&mut self) {
-        let mut a = std::mem::replace(&mut self.state.analysis, Analysis::None);
-        let ids = a.ids();
-        let tracked = if ids.is_empty() { Vec::new() } else { self.tracked(&ids) };
-        a.record(&self.state, &tracked);
-        self.state.analysis = a;
     }
 
     /// Advance one time step.
@@ -296,7 +423,6 @@ impl Simulation {
         self.par.after_step(&self.state.p, compute);
         self.state.step += 1;
         self.state.time = self.state.step as f64 * dt;
-        self.record();
         // a removed wall stops acting from the next force sweep on (the sweep skips
         // inactive walls; their candidates leave the list at its next rebuild)
         let t = self.state.time;
@@ -335,7 +461,6 @@ impl Simulation {
             }
         }
         if done {
-            st.analysis.phase_end(&ph.name, st.time);
             for name in &ph.remove_walls_at_end {
                 if let Some(w) = st.walls.iter_mut().find(|w| &w.name == name) {
                     w.active = false;

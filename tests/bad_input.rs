@@ -134,7 +134,8 @@ fn particle_leaving_the_domain_stops_the_run_with_a_checkpoint() {
 fn a_nan_during_a_run_stops_it_and_names_the_particle() {
     let mut sim = sim("SC-pair.toml", &[]);
     sim.step().unwrap();
-    sim.state.p.vel[1].x = f64::NAN;
+    let v = sim.particles().vel[1];
+    sim.set_velocity(1, talus::dim::Vec3::new(f64::NAN, v.y, v.z));
     let err = sim.step().unwrap_err().to_string();
     assert!(err.contains("particle id 2") && err.contains("non-finite"), "{err}");
 }

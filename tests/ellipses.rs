@@ -30,8 +30,8 @@ fn a_tilted_ellipse_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_s
     );
     let mut sim = case2d(1.0, 0.0, 0.0, &parts, WALL_X, 2e-8).unwrap();
     run(&mut sim, 300_000);
-    let p = &sim.state.p;
-    assert!(sim.state.contacts == 0, "contact over");
+    let p = sim.particles();
+    assert!(sim.local_contacts() == 0, "contact over");
     // impulse solution: lever arm from the centre to the support point along +x
     let (s, c) = th.sin_cos();
     let (ax, ay) = (a * a * c * c + b * b * s * s, (a * a - b * b) * s * c); // A e_x
@@ -61,14 +61,14 @@ fn a_tilted_dumbbell_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_
     );
     let mut sim = case2d(1.0, 0.0, 0.0, &parts, WALL_X, 2e-8).unwrap();
     run(&mut sim, 300_000);
-    assert!(sim.state.contacts == 0, "contact over");
+    assert!(sim.local_contacts() == 0, "contact over");
     let m1 = 3900.0 * 4.0 / 3.0 * std::f64::consts::PI * rl.powi(3);
     let m = 2.0 * m1;
     let inertia = 2.0 * 0.4 * m1 * rl * rl + m * rl * rl;
     let ry = rl * s; // lever arm from C to the contact point, y part
     let j = 2.0 * 0.1 / (1.0 / m + ry * ry / inertia);
     let (vx, w) = (0.1 - j / m, ry * j / inertia);
-    let cl = &sim.state.clumps;
+    let cl = &sim.state().clumps;
     assert!((cl.vel[0].x - vx).abs() < 0.01 * 0.1, "v_x {} vs impulse solution {vx}", cl.vel[0].x);
     assert!((cl.omega[0] - w).abs() < 0.01 * w.abs(), "spin {} vs impulse solution {w}", cl.omega[0]);
 }
@@ -82,8 +82,8 @@ fn ellipses_meeting_tip_to_tip_rebound_with_restitution_e_and_no_spin() {
         );
         let mut sim = case2d(e, 0.3, 0.0, &parts, "", 2e-8).unwrap();
         run(&mut sim, 200_000);
-        let p = &sim.state.p;
-        assert_eq!(sim.state.contacts, 0);
+        let p = sim.particles();
+        assert_eq!(sim.local_contacts(), 0);
         assert!((p.vel[1].x - 0.1 * e).abs() < 0.005 * 0.1, "e = {e}: v_out {}", p.vel[1].x);
         assert!(p.omega[0].z.abs() < 1e-9 && p.vel[0].y.abs() < 1e-12);
     }
@@ -108,12 +108,12 @@ fn an_ellipse_rocking_on_its_flank_has_the_rolling_pendulum_period() {
     let dt = 2e-7;
     let mut sim = case2d(0.3, 0.5, 9.81, &parts, floor, dt).unwrap();
     let mut crossings = Vec::new();
-    let mut prev = sim.state.p.angle[0];
-    while crossings.len() < 3 && sim.state.time < 0.3 {
+    let mut prev = sim.particles().angle[0];
+    while crossings.len() < 3 && sim.time() < 0.3 {
         sim.step().unwrap();
-        let ang = sim.state.p.angle[0];
+        let ang = sim.particles().angle[0];
         if prev > 0.0 && ang <= 0.0 || prev < 0.0 && ang >= 0.0 {
-            crossings.push(sim.state.time - dt * ang / (ang - prev));
+            crossings.push(sim.time() - dt * ang / (ang - prev));
         }
         prev = ang;
     }
@@ -123,7 +123,7 @@ fn an_ellipse_rocking_on_its_flank_has_the_rolling_pendulum_period() {
     let expect = std::f64::consts::TAU / w2.sqrt();
     assert!((period / expect - 1.0).abs() < 0.02, "period {period} s vs rolling pendulum {expect} s");
     // it stays on its flank
-    let p = &sim.state.p;
+    let p = sim.particles();
     assert!((p.pos[0].y - b).abs() < 0.01 * b, "height {} vs b = {b}", p.pos[0].y);
 }
 
@@ -134,13 +134,13 @@ fn a_disc_bounces_off_a_segment_face_with_e_and_off_its_end_along_the_centre_lin
     let parts = "list = [ { id = 1, position = [0.0, 0.0004, 0.0], velocity = [0.0, 0.1, 0.0], radius = 0.001 } ]";
     let mut sim = case2d(0.5, 0.0, 0.0, parts, seg, 2e-8).unwrap();
     run(&mut sim, 200_000);
-    let v = sim.state.p.vel[0];
+    let v = sim.particles().vel[0];
     assert!((v.y + 0.05).abs() < 0.005 * 0.1 && v.x.abs() < 1e-12, "face bounce {v}");
     // end point: moving along +x at the height of the segment towards its left end
     let parts = "list = [ { id = 1, position = [-0.0049, 0.0021, 0.0], velocity = [0.1, 0.0, 0.0], radius = 0.001 } ]";
     let mut sim = case2d(1.0, 0.0, 0.0, parts, seg, 2e-8).unwrap();
     run(&mut sim, 300_000);
-    let (p, v) = (sim.state.p.pos[0], sim.state.p.vel[0]);
+    let (p, v) = (sim.particles().pos[0], sim.particles().vel[0]);
     assert!((v.norm() - 0.1).abs() < 1e-3 * 0.1, "elastic: speed {}", v.norm());
     // the impulse is along the line from the end point to the centre at impact:
     // (dx, dy) with dy = 0.6 mm and |d| = r, so the outgoing velocity satisfies
@@ -166,10 +166,10 @@ fn a_box_wall_holds_a_settled_bed_and_carries_its_weight() {
     let boxw = "[[wall]]\nname = \"box\"\nmaterial = \"m\"\nbox = { lo = [-0.0065, 0.0, 0.0], hi = [0.0065, 0.02, 0.0] }\n";
     let mut sim = case2d(0.3, 0.3, 9.81, &list, boxw, 2e-7).unwrap();
     run(&mut sim, 1_000_000);
-    let p = &sim.state.p;
+    let p = sim.particles();
     let weight: f64 = p.mass.iter().sum::<f64>() * 9.81;
     assert!(p.vel.iter().all(|v| v.norm() < 1e-3), "settled");
-    assert!((sim.state.walls[0].force.y / -weight - 1.0).abs() < 0.01, "box force {} vs weight {weight}", sim.state.walls[0].force);
+    assert!((sim.walls()[0].force.y / -weight - 1.0).abs() < 0.01, "box force {} vs weight {weight}", sim.walls()[0].force);
     assert!(p.pos.iter().all(|x| x.x.abs() < 0.0065 && x.y > 0.0), "all inside");
 }
 

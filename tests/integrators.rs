@@ -80,7 +80,7 @@ duration = 10.0
 
 /// Kinetic plus Hertz elastic energy 8/15 Y* sqrt(R*) delta^(5/2) of every contact.
 fn total_energy(sim: &Simulation) -> f64 {
-    let p = &sim.state.p;
+    let p = sim.particles();
     let y = E / (2.0 * (1.0 - NU * NU));
     let mut e = p.kinetic_energy();
     for i in 0..p.len() {
@@ -91,7 +91,7 @@ fn total_energy(sim: &Simulation) -> f64 {
                 e += 8.0 / 15.0 * y * r.sqrt() * d.powf(2.5);
             }
         }
-        for w in &sim.state.walls {
+        for w in sim.walls() {
             if let talus::walls::Shape::Plane(pl) = &w.shape {
                 let d = p.radius[i] - pl.distance(&p.pos[i]);
                 if d > 0.0 {
@@ -113,7 +113,7 @@ fn elastic_gas_conserves_energy_over_100000_steps() {
         let mut collisions = 0usize;
         for _ in 0..100_000 {
             sim.step().unwrap();
-            collisions += sim.state.contacts;
+            collisions += sim.local_contacts();
         }
         let e1 = total_energy(&sim);
         let drift = (e1 - e0).abs() / e0;
@@ -169,9 +169,9 @@ duration = 1.0
     for _ in 0..steps {
         sim.step().unwrap();
     }
-    let t = sim.state.time;
+    let t = sim.time();
     let exact = Vec3::new(0.0, 0.0, z_eq + a * (w * t).cos());
-    (sim.state.p.pos[0] - exact).norm()
+    (sim.particles().pos[0] - exact).norm()
 }
 
 fn observed_order(integrator: &str, base: usize) -> f64 {

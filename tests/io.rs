@@ -8,7 +8,7 @@ use talus::run::{run, RunOptions};
 fn csv_cloud_reproduces_the_lattice_cloud_exactly() {
     let d = tempfile::tempdir().unwrap();
     let lat = sim("H1-small.toml", &[]);
-    let inits = lat.state.p.to_inits();
+    let inits = lat.particles().to_inits();
     let csv = d.path().join("cloud.csv");
     talus::generate::write_csv(&csv, &inits).unwrap();
     let text = case_text("H1-small.toml", &[]);
@@ -16,9 +16,9 @@ fn csv_cloud_reproduces_the_lattice_cloud_exactly() {
     let end = start + text[start..].find('\n').unwrap();
     let text = format!("{}csv = \"{}\"{}", &text[..start], csv.display(), &text[end..]);
     let from_csv = talus::sim::Simulation::new(parse("H1-small.toml", &text)).unwrap();
-    assert_eq!(from_csv.state.p.len(), 5000);
+    assert_eq!(from_csv.particles().len(), 5000);
     assert_eq!(from_csv.state_hash(), lat.state_hash());
-    assert_eq!(from_csv.state.p.radius, lat.state.p.radius);
+    assert_eq!(from_csv.particles().radius, lat.particles().radius);
 }
 
 #[test]
@@ -34,7 +34,7 @@ fn snapshots_probes_and_summary_are_written() {
     let pos = last.dataset("position").unwrap();
     assert_eq!(pos.shape(), vec![300, 3]);
     let x: Vec<f64> = pos.read_raw().unwrap();
-    let p = &r.sim.state.p;
+    let p = r.sim.particles();
     // the last snapshot is at step 187 (20 ms); particles fall freely, so compare ids and count only
     let ids: Vec<u64> = last.dataset("id").unwrap().read_raw().unwrap();
     assert_eq!(ids, p.id);

@@ -59,10 +59,10 @@ fn a_moving_disc_wall_throws_a_particle_off_with_restitution_e() {
     // in the lab frame it leaves at (1 + e) v
     for e in [0.2, 0.5, 0.8] {
         let mut sim = disc_case(&[("restitution = 0.5", &format!("restitution = {e}"))]);
-        while sim.state.time < 0.004 {
+        while sim.time() < 0.004 {
             sim.step().unwrap();
         }
-        let v = sim.state.p.vel[0];
+        let v = sim.particles().vel[0];
         assert!((v.x - (1.0 + e) * 0.5).abs() < 0.005 * 0.5, "e = {e}: v_out {v}");
         assert!(v.y.abs() < 1e-12 && v.z == 0.0, "head-on stays on the line of centres: {v}");
     }
@@ -73,11 +73,11 @@ fn elastic_impact_on_the_disc_follows_hertz_with_the_curved_effective_radius() {
     let mut sim = disc_case(&[("restitution = 0.5", "restitution = 1.0")]);
     let mut max_overlap: f64 = 0.0;
     let mut max_force: f64 = 0.0;
-    while sim.state.time < 0.004 {
+    while sim.time() < 0.004 {
         sim.step().unwrap();
-        let w = &sim.state.walls[0];
+        let w = &sim.walls()[0];
         let talus::walls::Shape::Disc(d) = &w.shape else { unreachable!() };
-        max_overlap = max_overlap.max(0.002 + d.radius - (sim.state.p.pos[0] - d.center).norm());
+        max_overlap = max_overlap.max(0.002 + d.radius - (sim.particles().pos[0] - d.center).norm());
         max_force = max_force.max(w.force.norm());
     }
     // R* = r R / (r + R); the wall is rigid and infinitely heavy: m* = m
@@ -127,10 +127,10 @@ fn a_free_dumbbell_moves_as_one_rigid_body() {
     for _ in 0..10_000 {
         sim.step().unwrap();
     }
-    let p = &sim.state.p;
-    let t = sim.state.time;
+    let p = sim.particles();
+    let t = sim.time();
     // the lobes touch but never push each other: no contact, rigid distance, uniform motion
-    assert_eq!(sim.state.contacts, 0);
+    assert_eq!(sim.local_contacts(), 0);
     assert!(((p.pos[0] - p.pos[1]).norm() - 0.002).abs() < 1e-12);
     let c = (p.pos[0] + p.pos[1]) * 0.5;
     assert!((c.x - 0.1 * t).abs() < 1e-12 && c.y.abs() < 1e-12, "centre {c}");
@@ -160,17 +160,15 @@ fn a_dumbbell_hitting_a_wall_with_one_lobe_starts_to_spin_and_keeps_its_shape() 
         torque: talus::dim::Vec3::zeros(),
         load: [0; 6],
     };
-    sim.state.walls.push(wall);
+    sim.add_wall(wall);
     // tilt the dumbbell by 30 degrees so that only one lobe reaches the wall first
-    sim.state.clumps.angle[0] = 30f64.to_radians();
-    sim.state.clumps.place(&mut sim.state.p);
-    sim.state.nl.x_ref.clear();
+    sim.set_clump_angle(0, 30f64.to_radians());
     for _ in 0..10_000 {
         sim.step().unwrap();
     }
-    let c = &sim.state.clumps;
+    let c = &sim.state().clumps;
     assert!(c.vel[0].x < 0.0, "bounced back: {}", c.vel[0]);
     assert!(c.omega[0].abs() > 1.0, "spins after an off-centre impact: {}", c.omega[0]);
-    let p = &sim.state.p;
+    let p = sim.particles();
     assert!(((p.pos[0] - p.pos[1]).norm() - 0.002).abs() < 1e-12);
 }

@@ -12,10 +12,10 @@ fn moving_wall_launches_a_resting_sphere_at_twice_its_speed() {
         ("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, 0.0]"),
         ("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.5]"),
     ]);
-    while sim.state.time < 0.004 {
+    while sim.time() < 0.004 {
         sim.step().unwrap();
     }
-    let vz = sim.state.p.vel[0].z;
+    let vz = sim.particles().vel[0].z;
     assert!((vz - 1.0).abs() < 1e-3, "sphere speed after the moving wall hit it: {vz}");
 }
 
@@ -55,15 +55,15 @@ fn sphere_dropped_on_the_shared_edge_of_an_stl_square_bounces_once_with_one_cont
     ]);
     let mut max_contacts = 0;
     let mut max_overlap: f64 = 0.0;
-    while mesh_sim.state.time < 0.004 {
+    while mesh_sim.time() < 0.004 {
         mesh_sim.step().unwrap();
-        max_contacts = max_contacts.max(mesh_sim.state.contacts);
-        max_overlap = max_overlap.max(0.002 - mesh_sim.state.p.pos[0].z);
+        max_contacts = max_contacts.max(mesh_sim.local_contacts());
+        max_overlap = max_overlap.max(0.002 - mesh_sim.particles().pos[0].z);
     }
     assert_eq!(max_contacts, 1);
     let (d_hertz, _, _) = hertz_theory(y_eff(), R, mass(), 0.5);
     assert!((max_overlap / d_hertz - 1.0).abs() < 0.01, "overlap {max_overlap} vs {d_hertz}");
-    assert!((mesh_sim.state.p.vel[0].z - 0.5).abs() < 1e-3);
+    assert!((mesh_sim.particles().vel[0].z - 0.5).abs() < 1e-3);
 }
 
 #[test]
@@ -76,10 +76,10 @@ fn a_wall_moving_in_from_afar_still_finds_the_sphere() {
         ("lo = [-0.01, -0.01, -0.001]", "lo = [-0.01, -0.01, -0.01]"),
         ("duration = 0.004", "duration = 0.016"),
     ]);
-    while sim.state.time < 0.016 {
+    while sim.time() < 0.016 {
         sim.step().unwrap();
     }
-    let vz = sim.state.p.vel[0].z;
+    let vz = sim.particles().vel[0].z;
     assert!((vz - 1.0).abs() < 1e-3, "sphere speed after the moving wall hit it: {vz}");
 }
 
