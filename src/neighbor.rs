@@ -155,66 +155,31 @@ impl NeighborList {
     /// one particle is owned (ghosts are the particles after `p.owned()`); wall
     /// candidates: owned particles only.
     pub fn build_with(&mut self, p: &Particles, walls: &[Wall], hist: &History) {
+        let grid = CellGrid::new(p, self.skin);
+        self.build_pairs(p, &grid, &hist.pairs);
+        self.build_wall_candidates(p, walls, &hist.walls);
+        self.x_ref.clear();
+        self.x_ref.extend_from_slice(&p.pos[..p.owned()]);
+        self.wall_moved = 0.0;
+        self.builds += 1;
+    }
+
+    /// The pairs within reach (`id_a < id_b`, sorted), each with its history
+    /// from `old_pair` (sorted by ids) and its R*, m*.
+    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Vec3)]) {
         let n = p.len();
         let n_own = p.owned();
-        let old_pair = &hist.pairs;
-        let old_wall = &hist.walls;
         let mut cursor = 0usize;
-
-        let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
-        // the grid spans the particles' bounding box
-        let mut lo = Vec3::repeat(f64::INFINITY);
-        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
-        for x in &p.pos {
-            lo = lo.inf(x);
-            hi = hi.sup(x);
-        }
-        if n == 0 {
-            lo = Vec3::zeros();
-            hi = Vec3::zeros();
-        }
-        let ext = (hi - lo).add_scalar(1e-9);
-        // cells no smaller than the interaction range, and at most 64 per particle
-        // (a huge domain with few particles must not allocate a huge grid)
-        let cap = (ext.x * ext.y * ext.z / (64.0 * n.max(1024) as f64)).cbrt();
-        let cell = (2.0 * rmax + self.skin).max(cap).max(1e-12);
-        let dims = [0, 1, 2].map(|k| ((ext[k] / cell).floor() as usize).clamp(1, 1 << 20));
-        let ncell = dims[0] * dims[1] * dims[2];
-        let cell_of = |x: &Vec3| -> usize {
-            let mut c = [0usize; 3];
-            for k in 0..3 {
-                let f = ((x[k] - lo[k]) / ext[k] * dims[k] as f64).floor();
-                c[k] = (f.max(0.0) as usize).min(dims[k] - 1);
-            }
-            (c[2] * dims[1] + c[1]) * dims[0] + c[0]
-        };
-        // counting sort of particles into cells, with compact copies in cell order
-        let mut start = vec![0u32; ncell + 1];
-        let cells: Vec<usize> = p.pos.iter().map(cell_of).collect();
-        for &c in &cells {
-            start[c + 1] += 1;
-        }
-        for c in 0..ncell {
-            start[c + 1] += start[c];
-        }
-        let mut fill = start.clone();
-        let mut sorted: Vec<(u64, u32, [f64; 4])> = vec![(0, 0, [0.0; 4]); n];
-        for (i, &c) in cells.iter().enumerate() {
-            let x = p.pos[i];
-            sorted[fill[c] as usize] = (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i] + self.skin]);
-            fill[c] += 1;
-        }
         // order of particles by id (usually the storage order already)
         let mut by_id: Vec<u32> = (0..n as u32).collect();
         if !p.id.windows(2).all(|w| w[0] < w[1]) {
             by_id.sort_by_key(|&i| p.id[i as usize]);
         }
-
         self.pairs.clear();
         self.pair_hist.clear();
         self.pair_inertia.clear();
         let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
-        let (nx, ny, nz) = (dims[0], dims[1], dims[2]);
+        let [nx, ny, nz] = grid.dims;
         for &a in &by_id {
             let a = a as usize;
             let xa = p.pos[a];
@@ -223,7 +188,7 @@ impl NeighborList {
             // a ghost pairs only with owned particles
             let ghost_a = a >= n_own;
             let clump_a = p.clump[a];
-            let c = cells[a];
+            let c = grid.cells[a];
             let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
             row.clear();
             let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(nx - 1));
@@ -231,8 +196,8 @@ impl NeighborList {
                 for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
                     // the three cells along x are contiguous in the sorted arrays
                     let base = (z * ny + y) * nx;
-                    let (lo, hi) = (start[base + x0] as usize, start[base + x1 + 1] as usize);
-                    for &(idb, b, q) in &sorted[lo..hi] {
+                    let (lo, hi) = (grid.start[base + x0] as usize, grid.start[base + x1 + 1] as usize);
+                    for &(idb, b, q) in &grid.sorted[lo..hi] {
                         let (dx, dy, dz) = (q[0] - xa.x, q[1] - xa.y, q[2] - xa.z);
                         let cut = ra + q[3];
                         // one rarely-taken branch (`&`, not `&&`): the id test alone
@@ -260,14 +225,17 @@ impl NeighborList {
                 self.pair_inertia.push(PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
             }
         }
+    }
 
-        // wall candidates
+    /// Every owned particle's wall candidates `(wall, feature)` within reach,
+    /// each with its history from `old_wall` (sorted by key) and its R*, m*.
+    fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: &[((u64, u16, u32), Vec3)]) {
         self.wall_start.clear();
         self.wall_feat.clear();
         self.wall_hist.clear();
         self.wall_inertia.clear();
         let mut feats = Vec::new();
-        for i in 0..n_own {
+        for i in 0..p.owned() {
             self.wall_start.push(self.wall_feat.len() as u32);
             for (w, wall) in walls.iter().enumerate() {
                 if !wall.active {
@@ -292,10 +260,67 @@ impl NeighborList {
             }
         }
         self.wall_start.push(self.wall_feat.len() as u32);
-        self.x_ref.clear();
-        self.x_ref.extend_from_slice(&p.pos[..n_own]);
-        self.wall_moved = 0.0;
-        self.builds += 1;
+    }
+}
+
+/// The particles counting-sorted into cells no smaller than the interaction
+/// range, over their bounding box: `sorted[start[c]..start[c + 1]]` holds cell
+/// c's particles as (id, index, [x, y, z, radius + skin]), cells in x-fastest order.
+struct CellGrid {
+    dims: [usize; 3],
+    start: Vec<u32>,
+    /// Each particle's cell.
+    cells: Vec<usize>,
+    sorted: Vec<(u64, u32, [f64; 4])>,
+}
+
+impl CellGrid {
+    fn new(p: &Particles, skin: f64) -> CellGrid {
+        let n = p.len();
+        let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
+        // the grid spans the particles' bounding box
+        let mut lo = Vec3::repeat(f64::INFINITY);
+        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
+        for x in &p.pos {
+            lo = lo.inf(x);
+            hi = hi.sup(x);
+        }
+        if n == 0 {
+            lo = Vec3::zeros();
+            hi = Vec3::zeros();
+        }
+        let ext = (hi - lo).add_scalar(1e-9);
+        // cells no smaller than the interaction range, and at most 64 per particle
+        // (a huge domain with few particles must not allocate a huge grid)
+        let cap = (ext.x * ext.y * ext.z / (64.0 * n.max(1024) as f64)).cbrt();
+        let cell = (2.0 * rmax + skin).max(cap).max(1e-12);
+        let dims = [0, 1, 2].map(|k| ((ext[k] / cell).floor() as usize).clamp(1, 1 << 20));
+        let ncell = dims[0] * dims[1] * dims[2];
+        let cell_of = |x: &Vec3| -> usize {
+            let mut c = [0usize; 3];
+            for k in 0..3 {
+                let f = ((x[k] - lo[k]) / ext[k] * dims[k] as f64).floor();
+                c[k] = (f.max(0.0) as usize).min(dims[k] - 1);
+            }
+            (c[2] * dims[1] + c[1]) * dims[0] + c[0]
+        };
+        // counting sort of particles into cells, with compact copies in cell order
+        let mut start = vec![0u32; ncell + 1];
+        let cells: Vec<usize> = p.pos.iter().map(cell_of).collect();
+        for &c in &cells {
+            start[c + 1] += 1;
+        }
+        for c in 0..ncell {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut sorted: Vec<(u64, u32, [f64; 4])> = vec![(0, 0, [0.0; 4]); n];
+        for (i, &c) in cells.iter().enumerate() {
+            let x = p.pos[i];
+            sorted[fill[c] as usize] = (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i] + skin]);
+            fill[c] += 1;
+        }
+        CellGrid { dims, start, cells, sorted }
     }
 }
 
