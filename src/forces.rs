@@ -141,7 +141,11 @@ fn sweep<L: ContactLaw>(
     ContactCount { owned: owned + wall_contacts, evaluated: evaluated + wall_contacts }
 }
 
-/// Pairs in list order: (contacts evaluated, contacts owned).
+/// Pairs in any order, each contact's force and torques kept in `out`; then
+/// every owned particle sums its own in order of its partners' ids
+/// (`NeighborList::incident`): the same sums, bit for bit, whatever the order
+/// of the pairs or of the particles in storage. Returns (contacts evaluated,
+/// contacts owned).
 fn pair_forces<L: ContactLaw>(
     law: L,
     s: &SweepSettings,
@@ -153,6 +157,9 @@ fn pair_forces<L: ContactLaw>(
     let (mut evaluated, mut owned) = (0usize, 0usize);
     let n_own = p.owned();
     let (consts, _) = nl.law_constants.get::<L>();
+    let out = &mut nl.pair_out;
+    out.clear();
+    out.resize(nl.pairs.len(), None);
     for (k, &(a, b)) in nl.pairs.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
         let hist = &mut nl.pair_hist[k];
@@ -166,11 +173,23 @@ fn pair_forces<L: ContactLaw>(
         owned += (a < n_own) as usize;
         let pm = table.get(p.material[a], p.material[b]);
         let m = Motion { v_i: p.vel[a], w_i: p.omega[a], v_j: p.vel[b], w_j: p.omega[b] };
-        let c = contact(law, &s.opts, pm, nl.pair_inertia[k], &consts[k], &g, &m, hist, s.dt);
-        p.force[a] += c.force;
-        p.force[b] -= c.force;
-        p.torque[a] += c.torque_i;
-        p.torque[b] += c.torque_j;
+        out[k] = Some(contact(law, &s.opts, pm, nl.pair_inertia[k], &consts[k], &g, &m, hist, s.dt));
+    }
+    for i in 0..n_own {
+        let (lo, hi) = (nl.incident_start[i] as usize, nl.incident_start[i + 1] as usize);
+        let (mut f, mut t) = (p.force[i], p.torque[i]);
+        for &e in &nl.incident[lo..hi] {
+            let Some(c) = &out[(e / 2) as usize] else { continue };
+            if e % 2 == 0 {
+                f += c.force;
+                t += c.torque_i;
+            } else {
+                f -= c.force;
+                t += c.torque_j;
+            }
+        }
+        p.force[i] = f;
+        p.torque[i] = t;
     }
     (evaluated, owned)
 }

@@ -7,7 +7,7 @@
 //! partners' global ids, whatever the local storage order or the rank: the
 //! foundation of rank-count-invariant results.
 
-use crate::contact::{ContactLaw, PairInertia};
+use crate::contact::{ContactForce, ContactLaw, PairInertia};
 use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Particles;
@@ -85,6 +85,18 @@ pub struct NeighborList {
     /// The law's constants of every pair and wall candidate (rebuilt with the list).
     #[serde(skip)]
     pub law_constants: LawConstants,
+    /// Each owned particle's pairs in order of its partners' global ids:
+    /// particle i's are `incident[incident_start[i]..incident_start[i + 1]]`,
+    /// each `2k` (i is pair k's a) or `2k + 1` (i is its b). The force sweep
+    /// sums a particle's pair forces in this order, so the sum does not depend
+    /// on the order of the pairs or of the particles in storage.
+    #[serde(skip)]
+    pub incident_start: Vec<u32>,
+    #[serde(skip)]
+    pub incident: Vec<u32>,
+    /// Each pair's force and torques from the last sweep (None: not touching).
+    #[serde(skip)]
+    pub pair_out: Vec<Option<ContactForce>>,
     /// Positions at the last build.
     pub x_ref: Vec<Vec3>,
     /// Largest distance any wall has moved since the last build (m).
@@ -157,6 +169,7 @@ impl NeighborList {
     pub fn build_with(&mut self, p: &Particles, walls: &[Wall], hist: &History) {
         let grid = CellGrid::new(p, self.skin);
         self.build_pairs(p, &grid, &hist.pairs);
+        self.build_incident(p);
         self.build_wall_candidates(p, walls, &hist.walls);
         self.x_ref.clear();
         self.x_ref.extend_from_slice(&p.pos[..p.owned()]);
@@ -223,6 +236,47 @@ impl NeighborList {
                 self.pair_hist.push(h);
                 let bi = b as usize;
                 self.pair_inertia.push(PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
+            }
+        }
+    }
+
+    /// The owned particles' pairs, each particle's in order of partner id
+    /// (`incident`; a counting sort by particle, then a sort within each).
+    fn build_incident(&mut self, p: &Particles) {
+        let n_own = p.owned();
+        let start = &mut self.incident_start;
+        start.clear();
+        start.resize(n_own + 1, 0);
+        for &(a, b) in &self.pairs {
+            for i in [a, b] {
+                if (i as usize) < n_own {
+                    start[i as usize + 1] += 1;
+                }
+            }
+        }
+        for i in 0..n_own {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        self.incident.clear();
+        self.incident.resize(start[n_own] as usize, 0);
+        for (k, &(a, b)) in self.pairs.iter().enumerate() {
+            for (side, i) in [(0u32, a), (1, b)] {
+                if (i as usize) < n_own {
+                    self.incident[fill[i as usize] as usize] = 2 * k as u32 + side;
+                    fill[i as usize] += 1;
+                }
+            }
+        }
+        let pairs = &self.pairs;
+        let partner = |e: u32| {
+            let (a, b) = pairs[(e / 2) as usize];
+            p.id[if e % 2 == 0 { b } else { a } as usize]
+        };
+        for i in 0..n_own {
+            let seg = &mut self.incident[start[i] as usize..start[i + 1] as usize];
+            if !seg.windows(2).all(|w| partner(w[0]) < partner(w[1])) {
+                seg.sort_unstable_by_key(|&e| partner(e));
             }
         }
     }
