@@ -446,6 +446,12 @@ pub struct ParallelSection {
     /// Steps between load checks.
     #[serde(default = "default_balance_interval")]
     pub balance_interval: u64,
+    /// How owned particles are kept in storage: `hilbert` (along a Hilbert
+    /// curve, remade at every list rebuild), `id`, or `shuffled` (a random
+    /// order at every rebuild, to check). Speed only: results are the same bit
+    /// for bit.
+    #[serde(default)]
+    pub order: crate::order::StorageOrder,
 }
 
 fn default_imbalance_percent() -> f64 {
@@ -462,6 +468,7 @@ impl Default for ParallelSection {
             balance: Default::default(),
             imbalance_percent: default_imbalance_percent(),
             balance_interval: default_balance_interval(),
+            order: Default::default(),
         }
     }
 }

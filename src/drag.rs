@@ -398,8 +398,8 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let n_grow = (d.growth_time / dt).ceil() as u64;
     for k in 1..=n_grow {
         let s = d.growth_from + (1.0 - d.growth_from) * k as f64 / n_grow as f64;
-        let r: Vec<f64> = radii.iter().map(|r| r * s).collect();
-        sim.set_radii(&r);
+        // particle id k + 1 has full radius radii[k]
+        sim.set_radii(|id| radii[(id - 1) as usize] * s);
         sim.step()?;
     }
     sim.replace_pair_table(table);

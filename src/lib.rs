@@ -19,6 +19,7 @@ pub mod material;
 pub mod neighbor;
 pub mod parallel;
 pub mod observe;
+pub mod order;
 pub mod output;
 pub mod overrides;
 pub mod particles;

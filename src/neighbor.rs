@@ -2,10 +2,12 @@
 //! rebuilt when any particle has moved more than half the skin since the last
 //! build. Cost per step is linear in N (each particle looks at 27 cells).
 //!
-//! The pair list is ordered by (id_a, id_b) with id_a < id_b. Scatter-adding pair
-//! forces in that order sums every particle's contact forces in order of its
-//! partners' global ids, whatever the local storage order or the rank: the
-//! foundation of rank-count-invariant results.
+//! Each pair is (a, b) with id_a < id_b, in storage order of a. Every owned
+//! particle keeps its pairs in order of its partners' global ids
+//! (`incident`), and the force sweep sums its pair forces in that order,
+//! whatever the storage order, the order of the pairs or the rank: the
+//! foundation of results that do not depend on how particles are stored or
+//! split among ranks.
 
 use crate::contact::{ContactForce, ContactLaw, PairInertia};
 use crate::dim::Vec3;
@@ -68,7 +70,7 @@ impl History {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct NeighborList {
     pub skin: f64,
-    /// Local index pairs (a, b) with id[a] < id[b], sorted by (id[a], id[b]).
+    /// Local index pairs (a, b) with id[a] < id[b], in storage order of a.
     pub pairs: Vec<(u32, u32)>,
     pub pair_hist: Vec<Vec3>,
     /// R*, m*, sqrt(m*) of each pair (fixed for a pair; computed at build).
@@ -182,19 +184,13 @@ impl NeighborList {
     fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Vec3)]) {
         let n = p.len();
         let n_own = p.owned();
-        let mut cursor = 0usize;
-        // order of particles by id (usually the storage order already)
-        let mut by_id: Vec<u32> = (0..n as u32).collect();
-        if !p.id.windows(2).all(|w| w[0] < w[1]) {
-            by_id.sort_by_key(|&i| p.id[i as usize]);
-        }
         self.pairs.clear();
         self.pair_hist.clear();
         self.pair_inertia.clear();
         let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
         let [nx, ny, nz] = grid.dims;
-        for &a in &by_id {
-            let a = a as usize;
+        // in storage order: a pair's place in the list changes no result
+        for a in 0..n {
             let xa = p.pos[a];
             let ra = p.radius[a];
             let ida = p.id[a];
@@ -226,12 +222,8 @@ impl NeighborList {
             }
             row.sort_unstable();
             for &(idb, b) in &row {
-                // new pairs come in increasing (ida, idb): merge with the old sorted history
                 let key = (ida, idb);
-                while cursor < old_pair.len() && old_pair[cursor].0 < key {
-                    cursor += 1;
-                }
-                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
+                let h = old_pair.binary_search_by_key(&key, |x| x.0).map(|k| old_pair[k].1).unwrap_or_else(|_| Vec3::zeros());
                 self.pairs.push((a as u32, b));
                 self.pair_hist.push(h);
                 let bi = b as usize;

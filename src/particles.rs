@@ -215,11 +215,13 @@ impl Particles {
         permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
     }
 
-    /// The particles as input records (for writing a cloud file).
+    /// The particles as initial conditions (for writing a cloud file), in order of id.
     pub fn to_inits(&self) -> Vec<ParticleInit> {
-        (0..self.len())
+        let mut v: Vec<ParticleInit> = (0..self.len())
             .map(|i| ParticleInit { id: self.id[i], pos: self.pos[i], vel: self.vel[i], omega: self.omega[i], radius: self.radius[i] })
-            .collect()
+            .collect();
+        v.sort_by_key(|x| x.id);
+        v
     }
 
     /// Local index of a global id (linear search; used for set-up and probes only).

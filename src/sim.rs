@@ -122,6 +122,10 @@ impl Simulation {
         let pe0 = p.potential_energy(set.sweep.gravity);
         let analysis = Analysis::new(&case, &p, &walls)?;
         let mut par = build_parallel(&case, comm, &p, &domain, skin)?;
+        if !clumps.is_empty() {
+            // a clump holds its members' storage indices: they stay in id order
+            par.order = crate::order::StorageOrder::Id;
+        }
         let mut gear = GearState::default();
         let mut hist = History::default();
         par.take_own(&mut p, &mut gear, &mut hist);
@@ -473,13 +477,14 @@ impl Simulation {
         Ok(self.state.phase < self.case.phases.len())
     }
 
-    /// Set the owned particles' radii (in storage order; for an ellipse its
+    /// Set every owned particle's radius to `radius_of(id)` (for an ellipse its
     /// equivalent radius sqrt(a b), the aspect ratio kept), with mass and inertia
     /// from their material's density; the lists are rebuilt at the next step.
     /// (Used to compact a bed by growing the granules.)
-    pub fn set_radii(&mut self, r: &[f64]) {
+    pub fn set_radii(&mut self, radius_of: impl Fn(u64) -> f64) {
         let p = &mut self.state.p;
-        for (i, &ri) in r.iter().enumerate().take(p.owned()) {
+        for i in 0..p.owned() {
+            let ri = radius_of(p.id[i]);
             let rho = self.case.materials[p.material[i] as usize].density;
             let m = rho * 4.0 / 3.0 * std::f64::consts::PI * ri.powi(3);
             let s = (p.radius[i] / p.minor[i]).sqrt();
@@ -770,5 +775,7 @@ fn build_parallel(case: &Case, comm: Rc<Comm>, p: &Particles, domain: &Domain, s
     let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
     let pc = &case.parallel;
     let balance = BalanceSettings { mode: pc.balance, tolerance: pc.imbalance_percent / 100.0, interval: pc.balance_interval };
-    Ok(Parallel::new(comm, dec, 2.0 * rmax + skin, balance))
+    let mut par = Parallel::new(comm, dec, 2.0 * rmax + skin, balance);
+    par.order = pc.order;
+    Ok(par)
 }

@@ -162,3 +162,12 @@ fn an_input_error_under_mpi_is_printed_once_by_rank_0() {
     let (ok, text, _) = talus(2, &case, &d.path().join("out"), &[]);
     assert!(!ok && text.matches("overlaps wall \"plate\"").count() == 1, "{text}");
 }
+
+#[test]
+fn shuffled_storage_on_2_ranks_gives_the_serial_id_order_state() {
+    let d = tempfile::tempdir().unwrap();
+    let case = write_case(d.path(), "shear-bed.toml", &[("count = 3000", "count = 1500")]);
+    let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "1500", "--set", "parallel.order=\"id\""]);
+    let shuffled = hash_of(2, &case, &d.path().join("p2"), &["--steps", "1500", "--set", "parallel.order=\"shuffled\""]);
+    assert_eq!(shuffled, serial);
+}

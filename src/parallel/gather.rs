@@ -54,8 +54,9 @@ impl Parallel {
 
     /// Records of the given ids (owned by any rank), in the order asked, on every rank.
     pub fn gather_ids(&self, p: &Particles, ids: &[u64]) -> Vec<Option<Record>> {
+        // storage is in spatial order, not id order: a scan (few ids are asked for)
         let own = &p.id[..p.owned()];
-        let mine: Vec<Record> = ids.iter().filter_map(|id| own.binary_search(id).ok().map(|i| p.record(i))).collect();
+        let mine: Vec<Record> = ids.iter().filter_map(|id| own.iter().position(|x| x == id).map(|i| p.record(i))).collect();
         let all: Vec<Record> = self.comm.all_gather_bytes(&bin(&mine)).iter().flat_map(|b| unbin::<Vec<Record>>(b)).collect();
         ids.iter().map(|id| all.iter().find(|r| r.id == *id).copied()).collect()
     }

@@ -1,6 +1,7 @@
 //! Migration: particles whose owner changed (they left the box, or the planes
 //! moved) go to their new owner with their Gear derivatives and every contact
-//! history entry that involves them; arrivals are merged in id order. The
+//! history entry that involves them; then the owned particles are put in the
+//! storage order asked for (`crate::order`: a Hilbert curve, or ids). The
 //! history is routed by one [`Router`] whether it comes from the current list
 //! (at a rebuild: local indices, no lookups) or keyed by ids (set-up, restart).
 
@@ -8,6 +9,7 @@ use super::{bin, unbin, Parallel};
 use crate::dim::Vec3;
 use crate::integrate::GearState;
 use crate::neighbor::{History, NeighborList};
+use crate::order::StorageOrder;
 use crate::particles::{Particles, Record};
 use serde::{Deserialize, Serialize};
 
@@ -62,7 +64,8 @@ impl Parallel {
         let rows: Vec<Vec<Vec3>> = keep.iter().map(|&i| gear.get(i)).collect();
         p.permute(&keep);
         gear.set_all(&rows);
-        let ids = &p.id;
+        let mut ids = p.id.clone();
+        ids.sort_unstable();
         let mine = |id: u64| ids.binary_search(&id).is_ok();
         hist.pairs.retain(|((a, b), _)| mine(*a) || mine(*b));
         hist.walls.retain(|((a, _, _), _)| mine(*a));
@@ -129,8 +132,10 @@ impl Parallel {
     pub fn migrate(&mut self, p: &mut Particles, gear: &mut GearState, hist: History) -> History {
         p.drop_ghosts();
         let (dest, mut out) = self.destinations(p);
-        // owned ids are sorted: a binary search finds an entry's particles
-        let to = |id: u64| p.id.binary_search(&id).ok().map(|i| dest[i]);
+        // a binary search over the sorted ids finds an entry's particles
+        let mut by_id: Vec<(u64, usize)> = p.id.iter().enumerate().map(|(i, &id)| (id, i)).collect();
+        by_id.sort_unstable();
+        let to = |id: u64| by_id.binary_search_by_key(&id, |x| x.0).ok().map(|k| dest[by_id[k].1]);
         let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
         for e in hist.pairs {
             route.pair(e, to(e.0 .0), to(e.0 .1));
@@ -180,12 +185,40 @@ impl Parallel {
                 hist.merge(add);
             }
         }
+        self.reorder(p, gear);
         self.make_ghosts(p);
         hist
     }
+
+    /// Put the owned particles (no ghosts yet) in the storage order asked for,
+    /// their Gear rows with them.
+    fn reorder(&mut self, p: &mut Particles, gear: &mut GearState) {
+        let perm = match self.order {
+            StorageOrder::Hilbert => crate::order::hilbert_order(p),
+            StorageOrder::Shuffled => {
+                self.reorders += 1;
+                crate::order::shuffled_order(p.len(), self.reorders ^ ((self.rank() as u64) << 40))
+            }
+            StorageOrder::Id => {
+                if p.id.windows(2).all(|w| w[0] < w[1]) {
+                    return;
+                }
+                let mut perm: Vec<usize> = (0..p.len()).collect();
+                perm.sort_unstable_by_key(|&i| p.id[i]);
+                perm
+            }
+        };
+        if perm.iter().enumerate().all(|(k, &i)| k == i) {
+            return;
+        }
+        let rows: Vec<Vec<Vec3>> = perm.iter().map(|&i| gear.get(i)).collect();
+        p.permute(&perm);
+        gear.set_all(&rows);
+    }
 }
 
-/// Merge the particles that stay (in id order) with the arrivals (sorted by id here).
+/// Merge the particles that stay with the arrivals (sorted by id here); in id
+/// order if the staying ones are (`reorder` then sets the storage order).
 fn merge_arrivals(p: &mut Particles, gear: &mut GearState, dest: &[usize], me: usize, mut arrived: Vec<(Record, Vec<Vec3>)>) {
     arrived.sort_by_key(|a| a.0.id);
     let mut q = Particles::default();

@@ -79,6 +79,10 @@ pub struct Parallel {
     pub rebalances: u64,
     /// The signal that asked every rank to stop, agreed at the same step.
     pub stop: Option<i32>,
+    /// How owned particles are ordered in storage after each migration.
+    pub order: crate::order::StorageOrder,
+    /// Storage reorders so far (seeds the `shuffled` order).
+    reorders: u64,
 }
 
 fn bin<T: Serialize>(x: &T) -> Vec<u8> {
@@ -105,6 +109,8 @@ impl Parallel {
             rebalance_pending: false,
             rebalances: 0,
             stop: None,
+            order: Default::default(),
+            reorders: 0,
         }
     }
 
