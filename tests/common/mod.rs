@@ -2,7 +2,10 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use talus::case::Case;
+use talus::builder::CaseBuilder;
+use talus::case::{Case, ContactSection, ModelName, PhaseSection, TimeStep};
+use talus::dim::Dimension;
+use talus::material::Material;
 use talus::run::{run, RunOptions};
 use talus::sim::Simulation;
 
@@ -73,41 +76,22 @@ pub fn mass() -> f64 {
     RHO * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3)
 }
 
-/// A 2D case: material (E = 1e9, nu 0.3, rho 3900, restitution `e`, friction
-/// `mu`), the given particle list and extra lines, no gravity unless given.
-pub fn case2d(e: f64, mu: f64, gravity: f64, particles: &str, extra: &str, dt: f64) -> Result<talus::sim::Simulation, String> {
-    let t = format!(
-        r#"
-[simulation]
-dimension = "2"
-timestep = {dt:e}
-gravity = [0.0, {g:e}, 0.0]
-domain = {{ lo = [-0.05, -0.05, -0.001], hi = [0.05, 0.05, 0.001] }}
+/// A 2D case (as `cases/2d.toml`): material "m" (E = 1e9 Pa, nu 0.3, rho 3900
+/// kg/m^3, restitution `e`, friction `mu`), Hertz contact, gravity `gravity`
+/// (m/s^2) along -y, time step `dt` (s), one phase "run" of 1 s. Add the particles
+/// and walls, then set it up with [`sim2d`].
+pub fn case2d(e: f64, mu: f64, gravity: f64, dt: f64) -> CaseBuilder {
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e9, poisson_ratio: 0.3, density: 3900.0, restitution: e, friction: mu };
+    CaseBuilder::new(Dimension::Two)
+        .timestep(TimeStep::Seconds(dt))
+        .gravity([0.0, -gravity, 0.0])
+        .domain([-0.05, -0.05, -0.001], [0.05, 0.05, 0.001])
+        .contact(ContactSection::new(ModelName::Hertz))
+        .material(m)
+        .phase(PhaseSection::new("run", 1.0))
+}
 
-[contact]
-model = "hertz"
-
-[[material]]
-name = "m"
-youngs_modulus = 1.0e9
-poisson_ratio = 0.3
-density = 3900.0
-restitution = {e}
-friction = {mu}
-
-[particles]
-material = "m"
-{particles}
-
-{extra}
-
-[[phase]]
-name = "run"
-duration = 1.0
-"#,
-        g = -gravity
-    );
-    talus::case::Case::parse(&t, &cases_dir().join("2d.toml"))
-        .and_then(talus::sim::Simulation::new)
-        .map_err(|e| e.to_string())
+/// Build a case (named `cases/2d.toml`) and set up its simulation; the error as text.
+pub fn sim2d(b: CaseBuilder) -> Result<Simulation, String> {
+    b.build(&cases_dir().join("2d.toml")).and_then(Simulation::new).map_err(|e| e.to_string())
 }
