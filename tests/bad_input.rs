@@ -132,7 +132,7 @@ fn particle_leaving_the_domain_stops_the_run_with_a_checkpoint() {
 
 #[test]
 fn a_nan_during_a_run_stops_it_and_names_the_particle() {
-    let mut sim = sim("SC-pair.toml", &[]);
+    let mut sim = sim("SC-pair.toml", |_| {});
     sim.step().unwrap();
     sim.state.p.vel[1].x = f64::NAN;
     let err = sim.step().unwrap_err().to_string();

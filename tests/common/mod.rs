@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use talus::builder::CaseBuilder;
-use talus::case::{Case, ContactSection, ModelName, PhaseSection, TimeStep};
+use talus::case::{Case, ContactSection, LatticeSection, ModelName, ParticleEntry, ParticleSource, PhaseSection, TimeStep, WallSection};
 use talus::dim::Dimension;
 use talus::material::Material;
 use talus::run::{run, RunOptions};
@@ -13,7 +13,9 @@ pub fn cases_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")
 }
 
-/// A case file's text with string replacements applied (each must match).
+/// A case file's text with string replacements applied (each must match): for
+/// the tests of how a malformed file is reported. Valid changes go through
+/// [`edited`] on the typed values.
 pub fn case_text(name: &str, edits: &[(&str, &str)]) -> String {
     let mut t = std::fs::read_to_string(cases_dir().join(name)).unwrap();
     for (a, b) in edits {
@@ -23,31 +25,63 @@ pub fn case_text(name: &str, edits: &[(&str, &str)]) -> String {
     t
 }
 
+/// A case of `cases/` with `edit` applied to its typed values, validated again
+/// as a case file is.
+pub fn edited(name: &str, edit: impl FnOnce(&mut Case)) -> Case {
+    let path = cases_dir().join(name);
+    let mut case = Case::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    edit(&mut case);
+    CaseBuilder::from_case(case).build(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// Write an edited copy of a case (and the hopper meshes) into `dir`.
-pub fn write_case(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+pub fn write_case(dir: &Path, name: &str, edit: impl FnOnce(&mut Case)) -> PathBuf {
     let m = dir.join("meshes");
     std::fs::create_dir_all(&m).unwrap();
     for f in ["hopper.stl", "box.stl"] {
         std::fs::copy(cases_dir().join("meshes").join(f), m.join(f)).unwrap();
     }
     let path = dir.join(name);
-    std::fs::write(&path, case_text(name, edits)).unwrap();
+    std::fs::write(&path, edited(name, edit).to_toml().unwrap()).unwrap();
     path
 }
 
-pub fn parse(name: &str, text: &str) -> Case {
-    Case::parse(text, &cases_dir().join(name)).unwrap_or_else(|e| panic!("{e}"))
+/// A case of `cases/` with `edit` applied, set up.
+pub fn sim(name: &str, edit: impl FnOnce(&mut Case)) -> Simulation {
+    Simulation::new(edited(name, edit)).unwrap_or_else(|e| panic!("{e}"))
 }
 
-pub fn sim(name: &str, edits: &[(&str, &str)]) -> Simulation {
-    Simulation::new(parse(name, &case_text(name, edits))).unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// Run a case (with edits) to the end; returns summary.json as a map.
-pub fn run_case(name: &str, edits: &[(&str, &str)]) -> serde_json::Map<String, serde_json::Value> {
+/// Run a case (with `edit` applied) to the end; returns summary.json as a map.
+pub fn run_case(name: &str, edit: impl FnOnce(&mut Case)) -> serde_json::Map<String, serde_json::Value> {
     let dir = tempfile::tempdir().unwrap();
     let opts = RunOptions { out: dir.path().to_path_buf(), ..Default::default() };
-    run(parse(name, &case_text(name, edits)), &opts).unwrap_or_else(|e| panic!("{e}")).summary
+    run(edited(name, edit), &opts).unwrap_or_else(|e| panic!("{e}")).summary
+}
+
+/// The particles of a case given one by one (`particles.list`).
+pub fn list(c: &mut Case) -> &mut Vec<ParticleEntry> {
+    match &mut c.particles.source {
+        ParticleSource::List(l) => l,
+        s => panic!("particles given by {s:?}, not by a list"),
+    }
+}
+
+/// The lattice of a case whose particles come from `particles.lattice`.
+pub fn lattice(c: &mut Case) -> &mut LatticeSection {
+    match &mut c.particles.source {
+        ParticleSource::Lattice(l) => l,
+        s => panic!("particles given by {s:?}, not by a lattice"),
+    }
+}
+
+/// The wall of that name.
+pub fn wall<'a>(c: &'a mut Case, name: &str) -> &'a mut WallSection {
+    c.walls.iter_mut().find(|w| w.name == name).unwrap_or_else(|| panic!("no wall {name}"))
+}
+
+/// The phase of that name.
+pub fn phase<'a>(c: &'a mut Case, name: &str) -> &'a mut PhaseSection {
+    c.phases.iter_mut().find(|p| p.name == name).unwrap_or_else(|| panic!("no phase {name}"))
 }
 
 pub fn num(m: &serde_json::Map<String, serde_json::Value>, k: &str) -> f64 {
