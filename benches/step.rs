@@ -7,7 +7,10 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::path::Path;
-use talus::case::Case;
+use talus::builder::CaseBuilder;
+use talus::case::{Case, ContactSection, LatticeSection, ModelName, PhaseSection, TimeStep, WallSection};
+use talus::dim::Dimension;
+use talus::material::Material;
 use talus::sim::Simulation;
 
 fn h1_small_settled() -> Simulation {
@@ -26,41 +29,30 @@ fn h1_small_settled() -> Simulation {
 fn packed_bed(n_side_xy: usize, layers: usize) -> Simulation {
     let r = 0.001;
     let half = n_side_xy as f64 * r;
-    let text = format!(
-        r#"
-[simulation]
-timestep_rayleigh_fraction = 0.2
-gravity = [0.0, 0.0, -9.81]
-skin = 0.0004
-domain = {{ lo = [{lo}, {lo}, -0.001], hi = [{hi}, {hi}, {top}] }}
-[contact]
-model = "hertz"
-[[material]]
-name = "m"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-density = 2500.0
-restitution = 0.5
-friction = 0.4
-[particles]
-material = "m"
-lattice = {{ count = {count}, radius_min = {r}, radius_max = {r}, lo = [{nlo}, {nlo}, 0.0], hi_xy = [{nhi}, {nhi}], spacing = 2.0, seed = 1 }}
-[[wall]]
-name = "floor"
-material = "m"
-plane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}
-[[phase]]
-name = "run"
-duration = 100.0
-"#,
-        lo = -half - 0.01,
-        hi = half + 0.01,
-        top = 2.0 * r * layers as f64 + 0.01,
-        count = n_side_xy * n_side_xy * layers,
-        nlo = -half,
-        nhi = half + 1e-9,
-    );
-    let mut sim = Simulation::new(Case::parse(&text, Path::new("packed.toml")).unwrap()).unwrap();
+    let (lo, hi, top) = (-half - 0.01, half + 0.01, 2.0 * r * layers as f64 + 0.01);
+    let lattice = LatticeSection {
+        count: n_side_xy * n_side_xy * layers,
+        radius_min: r,
+        radius_max: r,
+        lo: [-half, -half, 0.0],
+        hi_xy: [half + 1e-9, half + 1e-9],
+        spacing: 2.0,
+        seed: 1,
+    };
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: 0.5, friction: 0.4 };
+    let case = CaseBuilder::new(Dimension::Three)
+        .timestep(TimeStep::RayleighFraction(0.2))
+        .gravity([0.0, 0.0, -9.81])
+        .skin(0.0004)
+        .domain([lo, lo, -0.001], [hi, hi, top])
+        .contact(ContactSection::new(ModelName::Hertz))
+        .material(m)
+        .lattice("m", lattice)
+        .wall(WallSection::plane("floor", "m", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
+        .phase(PhaseSection::new("run", 100.0))
+        .build(Path::new("packed.toml"))
+        .unwrap();
+    let mut sim = Simulation::new(case).unwrap();
     for _ in 0..200 {
         sim.step().unwrap();
     }

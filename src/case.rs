@@ -13,7 +13,7 @@ use crate::material::Material;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
     pub simulation: SimulationSection,
@@ -41,7 +41,7 @@ pub struct Case {
 
 /// `[simulation]`. In the file the time step is `timestep` (s) or
 /// `timestep_rayleigh_fraction`, exactly one of them.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawSimulation", into = "RawSimulation")]
 pub struct SimulationSection {
     pub dimension: Dimension,
@@ -115,7 +115,7 @@ impl From<SimulationSection> for RawSimulation {
     }
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DomainSection {
     pub lo: [f64; 3],
@@ -164,7 +164,7 @@ pub enum WallContactPoint {
 
 /// `[particles]`. In the file the particles come from exactly one of `csv`,
 /// `lattice` and `list`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawParticles", into = "RawParticles")]
 pub struct ParticlesSection {
     pub material: String,
@@ -237,7 +237,7 @@ impl From<ParticlesSection> for RawParticles {
     }
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EllipseEntry {
     pub id: u64,
@@ -246,7 +246,8 @@ pub struct EllipseEntry {
     pub angle: f64,
 }
 
-fn default_overlap_tol() -> f64 {
+/// `particles.overlap_tolerance` when the case does not give it.
+pub(crate) fn default_overlap_tol() -> f64 {
     1e-3
 }
 
@@ -284,7 +285,7 @@ pub struct ParticleEntry {
 
 /// `[[wall]]`. In the file its shape is exactly one of `plane`, `stl`,
 /// `disc`, `segment` and `box`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawWall", into = "RawWall")]
 pub struct WallSection {
     pub name: String,
@@ -414,7 +415,7 @@ pub struct PlaneSection {
     pub normal: [f64; 3],
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PhaseSection {
     pub name: String,
@@ -431,7 +432,7 @@ pub struct PhaseSection {
 }
 
 /// `[parallel]`: how the domain is cut among MPI ranks and kept balanced.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParallelSection {
     /// Boxes along x, y, z (their product must be the number of ranks);
@@ -452,6 +453,14 @@ pub struct ParallelSection {
     /// for bit.
     #[serde(default)]
     pub order: crate::order::StorageOrder,
+    /// Steps between remakes of the storage order, at the next list rebuild
+    /// (0: at every rebuild).
+    #[serde(default = "default_reorder_interval")]
+    pub reorder_interval: u64,
+}
+
+fn default_reorder_interval() -> u64 {
+    1000
 }
 
 fn default_imbalance_percent() -> f64 {
@@ -469,11 +478,12 @@ impl Default for ParallelSection {
             imbalance_percent: default_imbalance_percent(),
             balance_interval: default_balance_interval(),
             order: Default::default(),
+            reorder_interval: default_reorder_interval(),
         }
     }
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSection {
     /// Probe interval (s).
@@ -507,7 +517,7 @@ fn default_interval() -> f64 {
 }
 
 /// What figures the run computes for `summary.json`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "lowercase")]
 pub enum AnalysisSection {
     /// A single collision of `particle` with the wall `wall` or the particle `partner`.
@@ -568,17 +578,25 @@ impl Case {
         let case: Case = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
             TalusError::Input(format!("{} with --set {}: {}", path.display(), sets.join(" --set "), e.message()))
         })?;
-        case.located(path)
+        case.validated(path)
+    }
+
+    /// The case as TOML text in the file's layout; `Case::parse` reads it back
+    /// to the same values (every number is written to round trip).
+    pub fn to_toml(&self) -> Result<String, TalusError> {
+        toml::to_string(self).map_err(|e| TalusError::Input(format!("{}: cannot write the case as TOML: {e}", self.path.display())))
     }
 
     /// Parse case text; `path` names it in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> Result<Case, TalusError> {
         let case: Case = toml::from_str(text).map_err(|e| syntax_error(text, path, e))?;
-        case.located(path)
+        case.validated(path)
     }
 
-    /// The case with its file's path (for messages and relative paths), validated.
-    fn located(self, path: &Path) -> Result<Case, TalusError> {
+    /// The case with its file's path (for messages and relative paths), validated:
+    /// the checks every case file passes. A case built in code
+    /// ([`crate::builder::CaseBuilder`]) ends here too.
+    pub fn validated(self, path: &Path) -> Result<Case, TalusError> {
         let mut case = self;
         case.path = path.to_path_buf();
         case.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();

@@ -18,9 +18,11 @@
 //! area (semi-axes r sqrt(lambda), r / sqrt(lambda), placed at a random angle),
 //! Hertz-Mindlin with Coulomb friction in talus's convention.
 
-use crate::case::Case;
+use crate::builder::CaseBuilder;
+use crate::case::{Case, ContactSection, EllipseEntry, ModelName, ParticleEntry, PhaseSection, TimeStep, WallSection};
+use crate::contact::Convention;
 use crate::contact::ellipse::{contact, Ellipse};
-use crate::dim::Vec3;
+use crate::dim::{Dimension, Vec3};
 use crate::error::TalusError;
 use crate::material::{Material, Mixing, PairTable};
 use crate::observe::{self, Observer};
@@ -187,8 +189,16 @@ impl DragCase {
     /// touching at its centre, at a random angle), the four container walls, the
     /// cylinder at rest. Returns the case and every particle's full radius (id order).
     pub fn bed_case(&self, seed: u64) -> Result<(Case, Vec<f64>), TalusError> {
-        let d = &self.drag;
         let (h, granules) = self.bed_radii(seed);
+        let bed = self.place_granules(seed, h, &granules)?;
+        let case = self.assemble_bed(seed, h, &bed)?;
+        Ok((case, bed.full))
+    }
+
+    /// Place every granule at random at `growth_from` of its size, without overlap
+    /// with the others, the container (W x `h`, m) and the cylinder.
+    fn place_granules(&self, seed: u64, h: f64, granules: &[f64]) -> Result<Bed, TalusError> {
+        let d = &self.drag;
         let w = d.width;
         let rc = 0.5 * d.cylinder_diameter;
         let (cx, cy) = (0.5 * w, 0.5 * h - 0.5 * d.travel);
@@ -196,12 +206,12 @@ impl DragCase {
         let s0 = d.growth_from;
         let dumbbell = d.shape == GranuleShape::Dumbbell;
         let ellipse = d.shape == GranuleShape::Ellipse;
-        // (x, y, radius at s0) of every particle, and the full radii
-        let mut placed: Vec<(f64, f64, f64)> = Vec::with_capacity(2 * d.count);
-        let mut full = Vec::with_capacity(2 * d.count);
-        let mut clumps = Vec::new();
-        // ellipses: the body at s0 of every particle (discs as a = b) and its angle
-        let mut bodies: Vec<Ellipse> = Vec::with_capacity(d.count);
+        let mut bed = Bed {
+            placed: Vec::with_capacity(2 * d.count),
+            full: Vec::with_capacity(2 * d.count),
+            clumps: Vec::new(),
+            bodies: Vec::with_capacity(d.count),
+        };
         let mut angle_rng = ChaCha8Rng::seed_from_u64(seed ^ 0xa9_1e00_0000);
         let mut tries = 0u64;
         let free = |placed: &[(f64, f64, f64)], x: f64, y: f64, r: f64| {
@@ -222,7 +232,7 @@ impl DragCase {
                 && contact(&cyl, e).is_none()
                 && bodies.iter().all(|o| (o.c - c).norm() >= o.a + e.a || contact(o, e).is_none())
         };
-        for &rg in &granules {
+        for &rg in granules {
             loop {
                 tries += 1;
                 if tries > 5_000_000 {
@@ -239,12 +249,12 @@ impl DragCase {
                     let th = std::f64::consts::TAU * rng.random::<f64>();
                     let (ex, ey) = (s0 * rs * th.cos(), s0 * rs * th.sin());
                     let (a, b) = ((x + ex, y + ey), (x - ex, y - ey));
-                    if free(&placed, a.0, a.1, s0 * rs) && free(&placed, b.0, b.1, s0 * rs) {
-                        let n = placed.len() as u64;
-                        placed.push((a.0, a.1, s0 * rs));
-                        placed.push((b.0, b.1, s0 * rs));
-                        full.extend([rs, rs]);
-                        clumps.push([n + 1, n + 2]);
+                    if free(&bed.placed, a.0, a.1, s0 * rs) && free(&bed.placed, b.0, b.1, s0 * rs) {
+                        let n = bed.placed.len() as u64;
+                        bed.placed.push((a.0, a.1, s0 * rs));
+                        bed.placed.push((b.0, b.1, s0 * rs));
+                        bed.full.extend([rs, rs]);
+                        bed.clumps.push([n + 1, n + 2]);
                         break;
                     }
                 } else if ellipse {
@@ -252,78 +262,78 @@ impl DragCase {
                     // angles from their own stream: at aspect ratio 1 the bed is the disc bed
                     let th = std::f64::consts::PI * angle_rng.random::<f64>();
                     let e = Ellipse::new(Vec3::new(x, y, 0.0), s0 * rg * l, s0 * rg / l, th);
-                    if free_ellipse(&bodies, &e) {
-                        bodies.push(e);
-                        placed.push((x, y, s0 * rg));
-                        full.push(rg);
+                    if free_ellipse(&bed.bodies, &e) {
+                        bed.bodies.push(e);
+                        bed.placed.push((x, y, s0 * rg));
+                        bed.full.push(rg);
                         break;
                     }
-                } else if free(&placed, x, y, s0 * rg) {
-                    placed.push((x, y, s0 * rg));
-                    full.push(rg);
+                } else if free(&bed.placed, x, y, s0 * rg) {
+                    bed.placed.push((x, y, s0 * rg));
+                    bed.full.push(rg);
                     break;
                 }
             }
         }
-        let radii = full;
+        Ok(bed)
+    }
+
+    /// The case of a placed bed of height `h` (m): the granules, the four
+    /// container walls, the cylinder at rest, one phase as long as growth,
+    /// settling and drag together; validated as a case file named
+    /// `ID-bedSEED.toml` next to the drag case.
+    fn assemble_bed(&self, seed: u64, h: f64, bed: &Bed) -> Result<Case, TalusError> {
+        let d = &self.drag;
         let m = &self.material;
-        let g = d.gravity;
-        let rmin = radii.iter().cloned().fold(f64::INFINITY, f64::min);
+        let w = d.width;
+        let rc = 0.5 * d.cylinder_diameter;
+        let (cx, cy) = (0.5 * w, 0.5 * h - 0.5 * d.travel);
+        let rmin = bed.full.iter().cloned().fold(f64::INFINITY, f64::min);
         let dt = d.timestep_rayleigh_fraction * rayleigh_time(rmin, m.density, m.shear_modulus(), m.poisson_ratio);
         let total = d.growth_time + d.settle_time + d.travel / d.cylinder_speed;
-        let mut t = format!(
-            "[simulation]\ndimension = \"2\"\ntimestep = {dt:e}\nforce_timestep = true\ngravity = [0.0, {:e}, 0.0]\nskin = {:e}\ndomain = {{ lo = [{:e}, {:e}, -1.0], hi = [{:e}, {:e}, 1.0] }}\n\n",
-            -g,
-            0.1 * d.granule_size,
-            -0.5 * w,
-            -0.5 * h,
-            1.5 * w,
-            1.5 * h
-        );
-        t += "[contact]\nmodel = \"hertz\"\nconvention = \"talus\"\n\n";
-        t += &format!(
-            "[[material]]\nname = \"{}\"\nyoungs_modulus = {:e}\npoisson_ratio = {}\ndensity = {:e}\nrestitution = {}\nfriction = {}\n\n",
-            m.name, m.youngs_modulus, m.poisson_ratio, m.density, m.restitution, m.friction
-        );
-        t += &format!("[particles]\nmaterial = \"{}\"\nlist = [\n", m.name);
-        for (k, (x, y, r0)) in placed.iter().enumerate() {
-            t += &format!("  {{ id = {}, position = [{x:e}, {y:e}, 0.0], radius = {r0:e} }},\n", k + 1);
-        }
-        t += "]\n";
-        if ellipse {
-            t += "ellipses = [\n";
-            for (k, e) in bodies.iter().enumerate() {
-                t += &format!("  {{ id = {}, aspect_ratio = {:?}, angle = {:e} }},\n", k + 1, d.aspect_ratio, e.theta);
-            }
-            t += "]\n";
-        }
-        if !clumps.is_empty() {
-            t += "clumps = [\n";
-            for [a, b] in &clumps {
-                t += &format!("  [{a}, {b}],\n");
-            }
-            t += "]\n";
-        }
-        t += "\n";
+        let list = bed.placed.iter().enumerate().map(|(k, &(x, y, r0))| ParticleEntry::at(k as u64 + 1, [x, y, 0.0], r0)).collect();
+        let ellipses = match d.shape {
+            GranuleShape::Ellipse => bed
+                .bodies
+                .iter()
+                .enumerate()
+                .map(|(k, e)| EllipseEntry { id: k as u64 + 1, aspect_ratio: d.aspect_ratio, angle: e.theta })
+                .collect(),
+            _ => Vec::new(),
+        };
+        let mut b = CaseBuilder::new(Dimension::Two)
+            .timestep(TimeStep::Seconds(dt))
+            .force_timestep(true)
+            .gravity([0.0, -d.gravity, 0.0])
+            .skin(0.1 * d.granule_size)
+            .domain([-0.5 * w, -0.5 * h, -1.0], [1.5 * w, 1.5 * h, 1.0])
+            .contact(ContactSection { convention: Convention::Talus, ..ContactSection::new(ModelName::Hertz) })
+            .material(m.clone())
+            .particle_list(&m.name, list)
+            .ellipses(ellipses)
+            .clumps(bed.clumps.clone());
         for (name, point, normal) in [
             ("floor", [0.0, 0.0], [0.0, 1.0]),
             ("lid", [0.0, h], [0.0, -1.0]),
             ("left", [0.0, 0.0], [1.0, 0.0]),
             ("right", [w, 0.0], [-1.0, 0.0]),
         ] {
-            t += &format!(
-                "[[wall]]\nname = \"{name}\"\nmaterial = \"{}\"\nplane = {{ point = [{:e}, {:e}, 0.0], normal = [{:?}, {:?}, 0.0] }}\n\n",
-                m.name, point[0], point[1], normal[0], normal[1]
-            );
+            b = b.wall(WallSection::plane(name, &m.name, [point[0], point[1], 0.0], [normal[0], normal[1], 0.0]));
         }
-        t += &format!(
-            "[[wall]]\nname = \"cylinder\"\nmaterial = \"{}\"\ndisc = {{ center = [{cx:e}, {cy:e}, 0.0], radius = {rc:e} }}\n\n",
-            m.name
-        );
-        t += &format!("[[phase]]\nname = \"drag\"\nduration = {total:e}\n");
-        let case = Case::parse(&t, &self.path.with_file_name(format!("{}-bed{seed}.toml", d.id)))?;
-        Ok((case, radii))
+        b.wall(WallSection::disc("cylinder", &m.name, [cx, cy, 0.0], rc))
+            .phase(PhaseSection::new("drag", total))
+            .build(&self.path.with_file_name(format!("{}-bed{seed}.toml", d.id)))
     }
+}
+
+/// A bed placed at the start of the growth: (x, y, radius at `growth_from`) of
+/// every particle (m), its full radius (m), the dumbbells' id pairs, and for
+/// ellipses the body of every granule at `growth_from` (its angle is the case's).
+struct Bed {
+    placed: Vec<(f64, f64, f64)>,
+    full: Vec<f64>,
+    clumps: Vec<[u64; 2]>,
+    bodies: Vec<Ellipse>,
 }
 
 /// One bed's drag series: (displacement m, drag N) every step.

@@ -157,8 +157,8 @@ fn pair_forces<L: ContactLaw>(
     let (mut evaluated, mut owned) = (0usize, 0usize);
     let n_own = p.owned();
     let (consts, _) = nl.law_constants.get::<L>();
+    // every entry is written below (touching or not): no clearing pass
     let out = &mut nl.pair_out;
-    out.clear();
     out.resize(nl.pairs.len(), None);
     for (k, &(a, b)) in nl.pairs.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
@@ -167,6 +167,7 @@ fn pair_forces<L: ContactLaw>(
             if *hist != Vec3::zeros() {
                 *hist = Vec3::zeros();
             }
+            out[k] = None;
             continue;
         };
         evaluated += 1;

@@ -2,6 +2,7 @@
 //! case against LIGGGHTS and YADE. See ARCHITECTURE.md for the layout.
 
 pub mod analysis;
+pub mod builder;
 pub mod case;
 pub mod checkpoint;
 pub mod checks;

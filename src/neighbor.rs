@@ -221,9 +221,14 @@ impl NeighborList {
                 }
             }
             row.sort_unstable();
+            // a's old pairs are one run of the sorted history, in the row's order
+            let mut cursor = if row.is_empty() { 0 } else { old_pair.partition_point(|x| x.0 .0 < ida) };
             for &(idb, b) in &row {
                 let key = (ida, idb);
-                let h = old_pair.binary_search_by_key(&key, |x| x.0).map(|k| old_pair[k].1).unwrap_or_else(|_| Vec3::zeros());
+                while cursor < old_pair.len() && old_pair[cursor].0 < key {
+                    cursor += 1;
+                }
+                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
                 self.pairs.push((a as u32, b));
                 self.pair_hist.push(h);
                 let bi = b as usize;

@@ -78,6 +78,8 @@ pub struct Simulation {
     par: Parallel,
     /// Global kinetic and potential energy at the last settle check (J).
     energies: (f64, f64),
+    /// The first step at whose list rebuild the storage order is remade.
+    next_reorder: u64,
 }
 
 /// Rayleigh time of a sphere: pi R sqrt(rho / G) / (0.1631 nu + 0.8766).
@@ -147,7 +149,7 @@ impl Simulation {
             analysis,
             clumps,
         };
-        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0) })
+        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0 })
     }
 
     /// The case this simulation was built from.
@@ -269,6 +271,7 @@ impl Simulation {
     /// its own particles of the global state `st` (a collective).
     pub fn restore(&mut self, mut st: State, mut hist: History) {
         self.par.refit_all(&st.p.pos);
+        self.par.reorder_now = true;
         self.par.take_own(&mut st.p, &mut st.gear, &mut hist);
         let hist = self.par.migrate(&mut st.p, &mut st.gear, hist);
         st.nl.build_with(&st.p, &st.walls, &hist);
@@ -289,6 +292,11 @@ impl Simulation {
         }
         let t = Instant::now();
         if need {
+            // the storage order is remade at most every `reorder_interval` steps
+            self.par.reorder_now = st.step >= self.next_reorder;
+            if self.par.reorder_now {
+                self.next_reorder = st.step + self.case.parallel.reorder_interval;
+            }
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
             let migrated = t.elapsed().as_secs_f64();
             self.par.timers.migrate += migrated;

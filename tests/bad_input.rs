@@ -132,7 +132,7 @@ fn particle_leaving_the_domain_stops_the_run_with_a_checkpoint() {
 
 #[test]
 fn a_nan_during_a_run_stops_it_and_names_the_particle() {
-    let mut sim = sim("SC-pair.toml", &[]);
+    let mut sim = sim("SC-pair.toml", |_| {});
     sim.step().unwrap();
     let v = sim.particles().vel[1];
     sim.set_velocity(1, talus::dim::Vec3::new(f64::NAN, v.y, v.z));

@@ -14,17 +14,14 @@ const BIN: &str = env!("CARGO_BIN_EXE_talus");
 /// A small H1 hopper: 1,000 spheres, the gate removed at 0.03 s, 700 steps in
 /// all (0.075 s), probes every 0.005 s, a checkpoint every 0.01 s.
 fn small_hopper(dir: &Path) -> PathBuf {
-    write_case(
-        dir,
-        "H1-small.toml",
-        &[
-            ("count = 5000", "count = 1000"),
-            ("duration = 1.2", "duration = 0.03"),
-            ("duration = 1.5", "duration = 0.045"),
-            ("interval = 0.01", "interval = 0.005\ncheckpoint_interval = 0.01"),
-            ("snapshot_interval = 0.1", "snapshot_interval = 0.02"),
-        ],
-    )
+    write_case(dir, "H1-small.toml", |c| {
+        lattice(c).count = 1000;
+        phase(c, "fill").duration = 0.03;
+        phase(c, "discharge").duration = 0.045;
+        c.output.interval = 0.005;
+        c.output.checkpoint_interval = Some(0.01);
+        c.output.snapshot_interval = Some(0.02);
+    })
 }
 
 fn cmd(case: &Path, out: &Path, extra: &[&str]) -> Command {

@@ -3,6 +3,7 @@
 
 mod common;
 use common::*;
+use talus::case::{EllipseEntry, ParticleEntry, WallSection};
 use talus::dim::Vec3;
 
 fn run(sim: &mut talus::sim::Simulation, steps: usize) {
@@ -11,12 +12,14 @@ fn run(sim: &mut talus::sim::Simulation, steps: usize) {
     }
 }
 
-const WALL_X: &str = r#"
-[[wall]]
-name = "w"
-material = "m"
-plane = { point = [0.003, 0.0, 0.0], normal = [-1.0, 0.0, 0.0] }
-"#;
+/// A wall at x = 3 mm facing -x.
+fn wall_x() -> WallSection {
+    WallSection::plane("w", "m", [0.003, 0.0, 0.0], [-1.0, 0.0, 0.0])
+}
+
+fn ellipse(id: u64, aspect_ratio: f64, angle: f64) -> EllipseEntry {
+    EllipseEntry { id, aspect_ratio, angle }
+}
 
 #[test]
 fn a_tilted_ellipse_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_solution() {
@@ -24,11 +27,11 @@ fn a_tilted_ellipse_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_s
     // moving at 0.1 m/s along +x into a wall; elastic and frictionless
     let (a, b, th) = (1.5e-3f64, 1.0e-3f64, 30f64.to_radians());
     let r = (a * b).sqrt();
-    let parts = format!(
-        "list = [ {{ id = 1, position = [0.0015, 0.0, 0.0], velocity = [0.1, 0.0, 0.0], radius = {r:e} }} ]\nellipses = [ {{ id = 1, aspect_ratio = {}, angle = {th} }} ]",
-        a / b
-    );
-    let mut sim = case2d(1.0, 0.0, 0.0, &parts, WALL_X, 2e-8).unwrap();
+    let case = case2d(1.0, 0.0, 0.0, 2e-8)
+        .particle_list("m", vec![ParticleEntry::at(1, [0.0015, 0.0, 0.0], r).moving([0.1, 0.0, 0.0])])
+        .ellipses(vec![ellipse(1, a / b, th)])
+        .wall(wall_x());
+    let mut sim = sim2d(case).unwrap();
     run(&mut sim, 300_000);
     let p = sim.particles();
     assert!(sim.local_contacts() == 0, "contact over");
@@ -55,11 +58,11 @@ fn a_tilted_dumbbell_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_
     let th = 30f64.to_radians();
     let (s, c) = th.sin_cos();
     let rl = 1.0e-3;
-    let parts = format!(
-        "list = [\n {{ id = 1, position = [{:e}, {:e}, 0.0], velocity = [0.1, 0.0, 0.0], radius = {rl:e} }},\n {{ id = 2, position = [{:e}, {:e}, 0.0], velocity = [0.1, 0.0, 0.0], radius = {rl:e} }} ]\nclumps = [[1, 2]]",
-        0.001 + rl * c, rl * s, 0.001 - rl * c, -rl * s
-    );
-    let mut sim = case2d(1.0, 0.0, 0.0, &parts, WALL_X, 2e-8).unwrap();
+    let list = vec![
+        ParticleEntry::at(1, [0.001 + rl * c, rl * s, 0.0], rl).moving([0.1, 0.0, 0.0]),
+        ParticleEntry::at(2, [0.001 - rl * c, -rl * s, 0.0], rl).moving([0.1, 0.0, 0.0]),
+    ];
+    let mut sim = sim2d(case2d(1.0, 0.0, 0.0, 2e-8).particle_list("m", list).clumps(vec![[1, 2]]).wall(wall_x())).unwrap();
     run(&mut sim, 300_000);
     assert!(sim.local_contacts() == 0, "contact over");
     let m1 = 3900.0 * 4.0 / 3.0 * std::f64::consts::PI * rl.powi(3);
@@ -77,10 +80,12 @@ fn a_tilted_dumbbell_hitting_a_frictionless_wall_follows_the_rigid_body_impulse_
 fn ellipses_meeting_tip_to_tip_rebound_with_restitution_e_and_no_spin() {
     for e in [0.3, 0.7] {
         let r = 1e-3;
-        let parts = format!(
-            "list = [\n {{ id = 1, position = [-0.0013, 0.0, 0.0], velocity = [0.1, 0.0, 0.0], radius = {r:e} }},\n {{ id = 2, position = [0.0013, 0.0, 0.0], velocity = [-0.1, 0.0, 0.0], radius = {r:e} }} ]\nellipses = [ {{ id = 1, aspect_ratio = 1.375 }}, {{ id = 2, aspect_ratio = 1.375 }} ]"
-        );
-        let mut sim = case2d(e, 0.3, 0.0, &parts, "", 2e-8).unwrap();
+        let list = vec![
+            ParticleEntry::at(1, [-0.0013, 0.0, 0.0], r).moving([0.1, 0.0, 0.0]),
+            ParticleEntry::at(2, [0.0013, 0.0, 0.0], r).moving([-0.1, 0.0, 0.0]),
+        ];
+        let case = case2d(e, 0.3, 0.0, 2e-8).particle_list("m", list).ellipses(vec![ellipse(1, 1.375, 0.0), ellipse(2, 1.375, 0.0)]);
+        let mut sim = sim2d(case).unwrap();
         run(&mut sim, 200_000);
         let p = sim.particles();
         assert_eq!(sim.local_contacts(), 0);
@@ -100,13 +105,12 @@ fn an_ellipse_rocking_on_its_flank_has_the_rolling_pendulum_period() {
     let th = 3f64.to_radians();
     let (s, c) = th.sin_cos();
     let reach = (a * a * s * s + b * b * c * c).sqrt();
-    let parts = format!(
-        "list = [ {{ id = 1, position = [0.0, {reach:e}, 0.0], radius = {r:e} }} ]\nellipses = [ {{ id = 1, aspect_ratio = {}, angle = {th} }} ]",
-        a / b
-    );
-    let floor = "[[wall]]\nname = \"floor\"\nmaterial = \"m\"\nplane = { point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }\n";
     let dt = 2e-7;
-    let mut sim = case2d(0.3, 0.5, 9.81, &parts, floor, dt).unwrap();
+    let case = case2d(0.3, 0.5, 9.81, dt)
+        .particle_list("m", vec![ParticleEntry::at(1, [0.0, reach, 0.0], r)])
+        .ellipses(vec![ellipse(1, a / b, th)])
+        .wall(WallSection::plane("floor", "m", [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]));
+    let mut sim = sim2d(case).unwrap();
     let mut crossings = Vec::new();
     let mut prev = sim.particles().angle[0];
     while crossings.len() < 3 && sim.time() < 0.3 {
@@ -129,16 +133,16 @@ fn an_ellipse_rocking_on_its_flank_has_the_rolling_pendulum_period() {
 
 #[test]
 fn a_disc_bounces_off_a_segment_face_with_e_and_off_its_end_along_the_centre_line() {
-    let seg = "[[wall]]\nname = \"s\"\nmaterial = \"m\"\nsegment = { from = [-0.004, 0.0015, 0.0], to = [0.004, 0.0015, 0.0] }\n";
+    let seg = WallSection::segment("s", "m", [-0.004, 0.0015, 0.0], [0.004, 0.0015, 0.0]);
     // face: straight up into the segment from below
-    let parts = "list = [ { id = 1, position = [0.0, 0.0004, 0.0], velocity = [0.0, 0.1, 0.0], radius = 0.001 } ]";
-    let mut sim = case2d(0.5, 0.0, 0.0, parts, seg, 2e-8).unwrap();
+    let parts = vec![ParticleEntry::at(1, [0.0, 0.0004, 0.0], 0.001).moving([0.0, 0.1, 0.0])];
+    let mut sim = sim2d(case2d(0.5, 0.0, 0.0, 2e-8).particle_list("m", parts).wall(seg.clone())).unwrap();
     run(&mut sim, 200_000);
     let v = sim.particles().vel[0];
     assert!((v.y + 0.05).abs() < 0.005 * 0.1 && v.x.abs() < 1e-12, "face bounce {v}");
     // end point: moving along +x at the height of the segment towards its left end
-    let parts = "list = [ { id = 1, position = [-0.0049, 0.0021, 0.0], velocity = [0.1, 0.0, 0.0], radius = 0.001 } ]";
-    let mut sim = case2d(1.0, 0.0, 0.0, parts, seg, 2e-8).unwrap();
+    let parts = vec![ParticleEntry::at(1, [-0.0049, 0.0021, 0.0], 0.001).moving([0.1, 0.0, 0.0])];
+    let mut sim = sim2d(case2d(1.0, 0.0, 0.0, 2e-8).particle_list("m", parts).wall(seg)).unwrap();
     run(&mut sim, 300_000);
     let (p, v) = (sim.particles().pos[0], sim.particles().vel[0]);
     assert!((v.norm() - 0.1).abs() < 1e-3 * 0.1, "elastic: speed {}", v.norm());
@@ -153,18 +157,18 @@ fn a_disc_bounces_off_a_segment_face_with_e_and_off_its_end_along_the_centre_lin
 
 #[test]
 fn a_box_wall_holds_a_settled_bed_and_carries_its_weight() {
-    let mut list = String::from("list = [\n");
-    let mut k = 0;
+    let mut list = Vec::new();
     for i in 0..6 {
         for j in 0..4 {
-            k += 1;
             let (x, y) = (-0.005 + 0.0021 * i as f64, 0.0011 + 0.0023 * j as f64);
-            list += &format!(" {{ id = {k}, position = [{x:e}, {y:e}, 0.0], radius = 0.001 }},\n");
+            list.push(ParticleEntry::at(list.len() as u64 + 1, [x, y, 0.0], 0.001));
         }
     }
-    list += "]\nellipses = [ { id = 3, aspect_ratio = 1.3, angle = 0.4 }, { id = 10, aspect_ratio = 1.2 } ]";
-    let boxw = "[[wall]]\nname = \"box\"\nmaterial = \"m\"\nbox = { lo = [-0.0065, 0.0, 0.0], hi = [0.0065, 0.02, 0.0] }\n";
-    let mut sim = case2d(0.3, 0.3, 9.81, &list, boxw, 2e-7).unwrap();
+    let case = case2d(0.3, 0.3, 9.81, 2e-7)
+        .particle_list("m", list)
+        .ellipses(vec![ellipse(3, 1.3, 0.4), ellipse(10, 1.2, 0.0)])
+        .wall(WallSection::boxed("box", "m", [-0.0065, 0.0, 0.0], [0.0065, 0.02, 0.0]));
+    let mut sim = sim2d(case).unwrap();
     run(&mut sim, 1_000_000);
     let p = sim.particles();
     let weight: f64 = p.mass.iter().sum::<f64>() * 9.81;
@@ -175,14 +179,14 @@ fn a_box_wall_holds_a_settled_bed_and_carries_its_weight() {
 
 #[test]
 fn ellipse_and_segment_input_errors_name_the_key() {
-    let one = "list = [ { id = 1, position = [0.0, 0.0, 0.0], radius = 0.001 } ]";
-    for (parts, extra, key) in [
-        (format!("{one}\nellipses = [ {{ id = 1, aspect_ratio = 0.5 }} ]"), "", "particles.ellipses[0].aspect_ratio = 0.5"),
-        (format!("{one}\nellipses = [ {{ id = 7, aspect_ratio = 1.5 }} ]"), "", "particles.ellipses[0].id = 7"),
-        (one.to_string(), "[[wall]]\nname = \"s\"\nmaterial = \"m\"\nsegment = { from = [0.0, 0.0, 0.0], to = [0.0, 0.0, 0.0] }\n", "wall.s.segment"),
-        (one.to_string(), "[[wall]]\nname = \"b\"\nmaterial = \"m\"\nbox = { lo = [0.0, 0.0, 0.0], hi = [-1.0, 1.0, 0.0] }\n", "wall.b.box"),
+    let one = || case2d(0.5, 0.3, 0.0, 1e-7).particle_list("m", vec![ParticleEntry::at(1, [0.0, 0.0, 0.0], 0.001)]);
+    for (case, key) in [
+        (one().ellipses(vec![ellipse(1, 0.5, 0.0)]), "particles.ellipses[0].aspect_ratio = 0.5"),
+        (one().ellipses(vec![ellipse(7, 1.5, 0.0)]), "particles.ellipses[0].id = 7"),
+        (one().wall(WallSection::segment("s", "m", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])), "wall.s.segment"),
+        (one().wall(WallSection::boxed("b", "m", [0.0, 0.0, 0.0], [-1.0, 1.0, 0.0])), "wall.b.box"),
     ] {
-        let err = case2d(0.5, 0.3, 0.0, &parts, extra, 1e-7).err().unwrap_or_else(|| panic!("accepted: {parts} {extra}"));
+        let err = sim2d(case).err().unwrap_or_else(|| panic!("accepted: {key}"));
         assert!(err.contains(key), "{err}");
     }
 }

@@ -3,12 +3,16 @@
 
 mod common;
 use common::*;
+use talus::integrate::IntegratorKind;
 use talus::run::{run, RunOptions};
 
 #[test]
 fn h1_small_fill_walls_plus_gate_carry_the_total_weight() {
     // fill only: the discharge phase is cut to one output interval
-    let s = run_case("H1-small.toml", &[("duration = 1.5", "duration = 0.01"), ("snapshot_interval = 0.1", "snapshot_interval = 10.0")]);
+    let s = run_case("H1-small.toml", |c| {
+        phase(c, "discharge").duration = 0.01;
+        c.output.snapshot_interval = Some(10.0);
+    });
     let w = num(&s, "fill_end_wall_force_z_n");
     let g = num(&s, "fill_end_gate_force_z_n");
     let weight = num(&s, "total_weight_n");
@@ -21,14 +25,15 @@ fn h1_small_fill_walls_plus_gate_carry_the_total_weight() {
     assert!(w > 0.2 * weight && g > 0.1 * weight, "walls {w}, gate {g}");
 }
 
-fn restart_matches(integrator: &str) {
-    let edits: Vec<(&str, &str)> = vec![
-        ("count = 5000", "count = 800"),
-        ("integrator = \"verlet\"", if integrator == "gear" { "integrator = \"gear\"" } else { "integrator = \"verlet\"" }),
-        ("duration = 1.2", "duration = 0.032"), // the gate goes at step 300, between the two halves
-        ("snapshot_interval = 0.1", "snapshot_interval = 10.0"),
-    ];
-    let case = || parse("H1-small.toml", &case_text("H1-small.toml", &edits));
+fn restart_matches(integrator: IntegratorKind) {
+    let case = || {
+        edited("H1-small.toml", |c| {
+            lattice(c).count = 800;
+            c.simulation.integrator = integrator;
+            phase(c, "fill").duration = 0.032; // the gate goes at step 300, between the two halves
+            c.output.snapshot_interval = Some(10.0);
+        })
+    };
     let d = tempfile::tempdir().unwrap();
     let whole = run(case(), &RunOptions { out: d.path().join("whole"), max_steps: Some(500), ..Default::default() }).unwrap();
     let half = run(case(), &RunOptions { out: d.path().join("a"), max_steps: Some(250), ..Default::default() }).unwrap();
@@ -44,7 +49,7 @@ fn restart_matches(integrator: &str) {
     )
     .unwrap();
     assert_eq!(rest.summary["steps"], whole.summary["steps"]);
-    assert_eq!(rest.summary["state_hash"], whole.summary["state_hash"], "{integrator}: restart differs");
+    assert_eq!(rest.summary["state_hash"], whole.summary["state_hash"], "{integrator:?}: restart differs");
     let (a, b) = (rest.sim.particles(), whole.sim.particles());
     for i in 0..a.len() {
         assert_eq!(a.pos[i], b.pos[i]);
@@ -54,10 +59,10 @@ fn restart_matches(integrator: &str) {
 
 #[test]
 fn restart_from_checkpoint_is_bitwise_identical_verlet() {
-    restart_matches("verlet");
+    restart_matches(IntegratorKind::Verlet);
 }
 
 #[test]
 fn restart_from_checkpoint_is_bitwise_identical_gear() {
-    restart_matches("gear");
+    restart_matches(IntegratorKind::Gear);
 }

@@ -3,34 +3,45 @@
 
 mod common;
 use common::*;
-use talus::case::Case;
-use talus::dim::Vec3;
+use std::path::Path;
+use talus::builder::CaseBuilder;
+use talus::case::{Case, ContactSection, ModelName, ParticleEntry, PhaseSection, TimeStep, WallSection};
+use talus::contact::hooke::HookeExplicit;
+use talus::dim::{Dimension, Vec3};
+use talus::integrate::IntegratorKind;
+use talus::material::Material;
 use talus::sim::Simulation;
 
+/// Material "m": E = 1e6 Pa, nu 0.3, rho 2500 kg/m^3, restitution `e`, friction `mu`.
+fn material(e: f64, mu: f64) -> Material {
+    Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: e, friction: mu }
+}
+
 /// An elastic, frictionless gas of `n^3` spheres in a closed box of six planes.
-fn gas_case(integrator: &str, n: usize) -> String {
-    let mut list = String::new();
+fn gas_case(integrator: IntegratorKind, n: usize) -> Case {
+    let mut list = Vec::new();
     let mut seed = 12345u64;
     let mut rnd = || {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     };
-    let mut id = 1;
     for i in 0..n {
         for j in 0..n {
             for k in 0..n {
                 let (x, y, z) = (-0.01 + 0.005 * i as f64, -0.01 + 0.005 * j as f64, -0.01 + 0.005 * k as f64);
-                list.push_str(&format!(
-                    "  {{ id = {id}, position = [{x}, {y}, {z}], velocity = [{}, {}, {}], radius = 0.0015 }},\n",
-                    0.5 * rnd(),
-                    0.5 * rnd(),
-                    0.5 * rnd()
-                ));
-                id += 1;
+                let v = [0.5 * rnd(), 0.5 * rnd(), 0.5 * rnd()];
+                list.push(ParticleEntry::at(list.len() as u64 + 1, [x, y, z], 0.0015).moving(v));
             }
         }
     }
-    let mut walls = String::new();
+    let mut b = CaseBuilder::new(Dimension::Three)
+        .timestep(TimeStep::Seconds(1e-5))
+        .integrator(integrator)
+        .domain([-0.02; 3], [0.02; 3])
+        .contact(ContactSection::new(ModelName::Hertz))
+        .material(material(1.0, 0.0))
+        .particle_list("m", list)
+        .phase(PhaseSection::new("run", 10.0));
     for (k, (p, nrm)) in [
         ([-0.0135, 0.0, 0.0], [1.0, 0.0, 0.0]),
         ([0.0135, 0.0, 0.0], [-1.0, 0.0, 0.0]),
@@ -39,43 +50,12 @@ fn gas_case(integrator: &str, n: usize) -> String {
         ([0.0, 0.0, -0.0135], [0.0, 0.0, 1.0]),
         ([0.0, 0.0, 0.0135], [0.0, 0.0, -1.0]),
     ]
-    .iter()
+    .into_iter()
     .enumerate()
     {
-        walls.push_str(&format!(
-            "[[wall]]\nname = \"w{k}\"\nmaterial = \"m\"\nplane = {{ point = {p:?}, normal = {nrm:?} }}\n\n"
-        ));
+        b = b.wall(WallSection::plane(&format!("w{k}"), "m", p, nrm));
     }
-    format!(
-        r#"
-[simulation]
-timestep = 1e-5
-gravity = [0.0, 0.0, 0.0]
-integrator = "{integrator}"
-domain = {{ lo = [-0.02, -0.02, -0.02], hi = [0.02, 0.02, 0.02] }}
-
-[contact]
-model = "hertz"
-
-[[material]]
-name = "m"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-density = 2500.0
-restitution = 1.0
-friction = 0.0
-
-[particles]
-material = "m"
-list = [
-{list}]
-
-{walls}
-[[phase]]
-name = "run"
-duration = 10.0
-"#
-    )
+    b.build(Path::new("gas.toml")).unwrap()
 }
 
 /// Kinetic plus Hertz elastic energy 8/15 Y* sqrt(R*) delta^(5/2) of every contact.
@@ -105,9 +85,8 @@ fn total_energy(sim: &Simulation) -> f64 {
 
 #[test]
 fn elastic_gas_conserves_energy_over_100000_steps() {
-    for integrator in ["verlet", "gear"] {
-        let text = gas_case(integrator, 5);
-        let mut sim = Simulation::new(Case::parse(&text, std::path::Path::new("gas.toml")).unwrap()).unwrap();
+    for integrator in [IntegratorKind::Verlet, IntegratorKind::Gear] {
+        let mut sim = Simulation::new(gas_case(integrator, 5)).unwrap();
         sim.prepare().unwrap();
         let e0 = total_energy(&sim);
         let mut collisions = 0usize;
@@ -118,13 +97,13 @@ fn elastic_gas_conserves_energy_over_100000_steps() {
         let e1 = total_energy(&sim);
         let drift = (e1 - e0).abs() / e0;
         assert!(collisions > 100_000, "the gas must collide: {collisions} contact-steps");
-        assert!(drift < 1e-4, "{integrator}: relative energy drift {drift:e}");
+        assert!(drift < 1e-4, "{integrator:?}: relative energy drift {drift:e}");
     }
 }
 
 /// A sphere oscillating on a linear undamped wall contact under gravity, never
 /// leaving it: z(t) = z_eq + A cos(w t). Returns |z(T) - exact| for n steps.
-fn oscillator_error(integrator: &str, steps: usize) -> f64 {
+fn oscillator_error(integrator: IntegratorKind, steps: usize) -> f64 {
     let kn = 100.0;
     let m = mass();
     let g = 9.81;
@@ -134,38 +113,22 @@ fn oscillator_error(integrator: &str, steps: usize) -> f64 {
     let dt = t_end / steps as f64;
     let z_eq = R - m * g / kn;
     let a = 5e-6;
-    let text = format!(
-        r#"
-[simulation]
-timestep = {dt:e}
-gravity = [0.0, 0.0, -{g}]
-integrator = "{integrator}"
-domain = {{ lo = [-0.01, -0.01, -0.01], hi = [0.01, 0.01, 0.01] }}
-[contact]
-model = "hooke"
-stiffness = {{ kn = {kn}, kt = {kn}, gamma_n = 0.0, gamma_t = 0.0 }}
-[[material]]
-name = "m"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-density = 2500.0
-restitution = 1.0
-friction = 0.4
-[particles]
-material = "m"
-overlap_tolerance = 0.01   # it starts resting on the floor: overlap m g / kn - A = 0.0016 R
-list = [ {{ id = 1, position = [0.0, 0.0, {z}], radius = {R} }} ]
-[[wall]]
-name = "floor"
-material = "m"
-plane = {{ point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}
-[[phase]]
-name = "run"
-duration = 1.0
-"#,
-        z = z_eq + a
-    );
-    let mut sim = Simulation::new(Case::parse(&text, std::path::Path::new("osc.toml")).unwrap()).unwrap();
+    let stiffness = HookeExplicit { kn, kt: kn, gamma_n: 0.0, gamma_t: 0.0 };
+    let case = CaseBuilder::new(Dimension::Three)
+        .timestep(TimeStep::Seconds(dt))
+        .gravity([0.0, 0.0, -g])
+        .integrator(integrator)
+        .domain([-0.01; 3], [0.01; 3])
+        .contact(ContactSection { stiffness: Some(stiffness), ..ContactSection::new(ModelName::Hooke) })
+        .material(material(1.0, 0.4))
+        // it starts resting on the floor: overlap m g / kn - A = 0.0016 R
+        .overlap_tolerance(0.01)
+        .particle_list("m", vec![ParticleEntry::at(1, [0.0, 0.0, z_eq + a], R)])
+        .wall(WallSection::plane("floor", "m", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
+        .phase(PhaseSection::new("run", 1.0))
+        .build(Path::new("osc.toml"))
+        .unwrap();
+    let mut sim = Simulation::new(case).unwrap();
     for _ in 0..steps {
         sim.step().unwrap();
     }
@@ -174,7 +137,7 @@ duration = 1.0
     (sim.particles().pos[0] - exact).norm()
 }
 
-fn observed_order(integrator: &str, base: usize) -> f64 {
+fn observed_order(integrator: IntegratorKind, base: usize) -> f64 {
     let errs: Vec<f64> = (0..4).map(|k| oscillator_error(integrator, base << k)).collect();
     // least-squares slope of log(error) against log(dt)
     let xs: Vec<f64> = (0..4).map(|k| -(k as f64) * 2f64.ln()).collect();
@@ -187,12 +150,12 @@ fn observed_order(integrator: &str, base: usize) -> f64 {
 
 #[test]
 fn verlet_is_second_order() {
-    let p = observed_order("verlet", 100);
+    let p = observed_order(IntegratorKind::Verlet, 100);
     assert!((p - 2.0).abs() < 0.1, "velocity Verlet observed order {p}");
 }
 
 #[test]
 fn gear_is_fifth_order() {
-    let p = observed_order("gear", 100);
+    let p = observed_order(IntegratorKind::Gear, 100);
     assert!((p - 5.0).abs() < 0.3, "Gear predictor-corrector observed order {p}");
 }

@@ -7,15 +7,11 @@ use talus::run::{run, RunOptions};
 #[test]
 fn csv_cloud_reproduces_the_lattice_cloud_exactly() {
     let d = tempfile::tempdir().unwrap();
-    let lat = sim("H1-small.toml", &[]);
+    let lat = sim("H1-small.toml", |_| {});
     let inits = lat.particles().to_inits();
     let csv = d.path().join("cloud.csv");
     talus::generate::write_csv(&csv, &inits).unwrap();
-    let text = case_text("H1-small.toml", &[]);
-    let start = text.find("lattice = {").unwrap();
-    let end = start + text[start..].find('\n').unwrap();
-    let text = format!("{}csv = \"{}\"{}", &text[..start], csv.display(), &text[end..]);
-    let from_csv = talus::sim::Simulation::new(parse("H1-small.toml", &text)).unwrap();
+    let from_csv = sim("H1-small.toml", |c| c.particles.source = talus::case::ParticleSource::Csv(csv.clone()));
     assert_eq!(from_csv.particles().len(), 5000);
     assert_eq!(from_csv.state_hash(), lat.state_hash());
     assert_eq!(from_csv.particles().radius, lat.particles().radius);
@@ -24,7 +20,10 @@ fn csv_cloud_reproduces_the_lattice_cloud_exactly() {
 #[test]
 fn snapshots_probes_and_summary_are_written() {
     let d = tempfile::tempdir().unwrap();
-    let c = parse("H1-small.toml", &case_text("H1-small.toml", &[("count = 5000", "count = 300"), ("snapshot_interval = 0.1", "snapshot_interval = 0.005")]));
+    let c = edited("H1-small.toml", |c| {
+        lattice(c).count = 300;
+        c.output.snapshot_interval = Some(0.005);
+    });
     let r = run(c, &RunOptions { out: d.path().to_path_buf(), max_steps: Some(200), ..Default::default() }).unwrap();
     // 200 steps of 1.07e-4 s = 21.3 ms: snapshots at 0, 5, 10, 15, 20 ms
     let f = hdf5_metno::File::open(d.path().join("snapshots.h5")).unwrap();

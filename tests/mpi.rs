@@ -7,6 +7,7 @@ mod common;
 use common::*;
 use std::path::Path;
 use std::process::Command;
+use talus::case::{Case, ParallelSection};
 
 /// Run talus on P ranks (P = 0: without mpirun). Returns (success, stdout + stderr, summary).
 fn talus(p: usize, case: &Path, out: &Path, extra: &[&str]) -> (bool, String, Option<serde_json::Value>) {
@@ -43,28 +44,26 @@ fn hash_of(p: usize, case: &Path, out: &Path, extra: &[&str]) -> String {
 fn h1_small_is_bit_identical_on_1_to_4_ranks_with_and_without_balancing() {
     let d = tempfile::tempdir().unwrap();
     // the gate opens at 0.25 s (step 2342): the last 1,100 steps discharge
-    let base = [
-        ("count = 5000", "count = 2500"),
-        ("duration = 1.2", "duration = 0.25"),
-        ("snapshot_interval = 0.1", "snapshot_interval = 10.0"),
-    ];
-    let mut runs: Vec<(usize, &str)> = vec![(0, "off"), (2, "time"), (3, "count"), (4, "contacts"), (4, "off")];
+    use talus::parallel::BalanceMode::{Contacts, Count, Off, Time};
+    let runs = [(0, Off), (2, Time), (3, Count), (4, Contacts), (4, Off)];
     let mut reference: Option<(String, String)> = None;
-    for (k, (p, mode)) in runs.drain(..).enumerate() {
+    for (k, (p, mode)) in runs.into_iter().enumerate() {
         let dir = d.path().join(format!("case{k}"));
-        let text_edit = format!("[parallel]\nbalance = \"{mode}\"\nimbalance_percent = 2.0\nbalance_interval = 50\n\n[analysis]");
-        let mut edits = base.to_vec();
-        edits.push(("[analysis]", &text_edit));
-        let case = write_case(&dir, "H1-small.toml", &edits);
+        let case = write_case(&dir, "H1-small.toml", |c| {
+            lattice(c).count = 2500;
+            phase(c, "fill").duration = 0.25;
+            c.output.snapshot_interval = Some(10.0);
+            c.parallel = ParallelSection { balance: mode, imbalance_percent: 2.0, balance_interval: 50, ..Default::default() };
+        });
         let out = dir.join("out");
         let h = hash_of(p, &case, &out, &["--steps", "3400"]);
         let probes = std::fs::read_to_string(out.join("probes.csv")).unwrap();
         match &reference {
             None => reference = Some((h, probes)),
             Some((h0, p0)) => {
-                assert_eq!(&h, h0, "{p} ranks, balance {mode}: particle states differ from the serial run");
+                assert_eq!(&h, h0, "{p} ranks, balance {mode:?}: particle states differ from the serial run");
                 // energies, contacts, wall forces and torques, discharged mass: exact sums, same text
-                assert!(&probes == p0, "{p} ranks, balance {mode}: probes.csv differs from the serial run");
+                assert!(&probes == p0, "{p} ranks, balance {mode:?}: probes.csv differs from the serial run");
             }
         }
     }
@@ -73,18 +72,17 @@ fn h1_small_is_bit_identical_on_1_to_4_ranks_with_and_without_balancing() {
 #[test]
 fn sheared_bed_is_bit_identical_on_1_to_4_ranks_and_restarts_on_another_count() {
     let d = tempfile::tempdir().unwrap();
-    let small = ("count = 3000", "count = 1500");
-    let case = write_case(d.path(), "shear-bed.toml", &[small]);
+    let small = |c: &mut Case| lattice(c).count = 1500;
+    let case = write_case(d.path(), "shear-bed.toml", small);
     let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "2500"]);
-    for (p, grid) in [(2, None), (3, None), (4, Some("[2, 2, 1]"))] {
+    for (p, grid) in [(2, None), (3, None), (4, Some([2, 2, 1]))] {
         let dir = d.path().join(format!("p{p}"));
-        std::fs::create_dir_all(&dir).unwrap();
         let c = match grid {
-            Some(g) => {
-                let c = dir.join("shear-bed.toml");
-                std::fs::write(&c, case_text("shear-bed.toml", &[small, ("balance = \"time\"", &format!("grid = {g}\nbalance = \"count\""))])).unwrap();
-                c
-            }
+            Some(g) => write_case(&dir, "shear-bed.toml", |c| {
+                small(c);
+                c.parallel.grid = Some(g);
+                c.parallel.balance = talus::parallel::BalanceMode::Count;
+            }),
             None => case.clone(),
         };
         assert_eq!(hash_of(p, &c, &dir.join("out"), &["--steps", "2500"]), serial, "{p} ranks (grid {grid:?})");
@@ -103,16 +101,12 @@ fn gear_integrator_is_bit_identical_across_ranks() {
     // Gear's derivatives migrate with the particles (Gear needs a smaller step
     // than Verlet: at 0.2 of the Rayleigh time this hopper blows up, at 0.1 it runs)
     let d = tempfile::tempdir().unwrap();
-    let case = write_case(
-        d.path(),
-        "H1-small.toml",
-        &[
-            ("timestep_rayleigh_fraction = 0.2", "timestep_rayleigh_fraction = 0.1"),
-            ("count = 5000", "count = 2000"),
-            ("integrator = \"verlet\"", "integrator = \"gear\""),
-            ("snapshot_interval = 0.1", "snapshot_interval = 10.0"),
-        ],
-    );
+    let case = write_case(d.path(), "H1-small.toml", |c| {
+        c.simulation.timestep = talus::case::TimeStep::RayleighFraction(0.1);
+        lattice(c).count = 2000;
+        c.simulation.integrator = talus::integrate::IntegratorKind::Gear;
+        c.output.snapshot_interval = Some(10.0);
+    });
     let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "3000"]);
     assert_eq!(hash_of(3, &case, &d.path().join("p3"), &["--steps", "3000"]), serial);
 }
@@ -121,7 +115,10 @@ fn gear_integrator_is_bit_identical_across_ranks() {
 fn a_failing_rank_ends_the_job_naming_the_rank_and_the_particle_and_all_write_a_checkpoint() {
     let d = tempfile::tempdir().unwrap();
     // the floor moved below the domain: the bed falls out through the bottom of the domain, on the lowest slab's rank
-    let case = write_case(d.path(), "shear-bed.toml", &[("point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0]", "point = [0.0, 0.0, -1.0], normal = [0.0, 0.0, 1.0]")]);
+    let case = write_case(d.path(), "shear-bed.toml", |c| {
+        let talus::case::WallShape::Plane(p) = &mut wall(c, "floor").shape else { panic!("the floor is a plane") };
+        p.point = [0.0, 0.0, -1.0];
+    });
     let out = d.path().join("out");
     let (ok, text, _) = talus(2, &case, &out, &[]);
     assert!(!ok, "the run should fail: {text}");
@@ -135,8 +132,7 @@ fn a_failing_rank_ends_the_job_naming_the_rank_and_the_particle_and_all_write_a_
 #[test]
 fn a_grid_that_does_not_match_the_ranks_is_refused() {
     let d = tempfile::tempdir().unwrap();
-    let case = d.path().join("shear-bed.toml");
-    std::fs::write(&case, case_text("shear-bed.toml", &[("balance = \"time\"", "grid = [1, 1, 3]\nbalance = \"time\"")])).unwrap();
+    let case = write_case(d.path(), "shear-bed.toml", |c| c.parallel.grid = Some([1, 1, 3]));
     let (ok, text, _) = talus(2, &case, &d.path().join("out"), &["--steps", "10"]);
     assert!(!ok);
     assert!(text.contains("parallel.grid = [1, 1, 3]") && text.contains("2 MPI ranks"), "{text}");
@@ -166,8 +162,8 @@ fn an_input_error_under_mpi_is_printed_once_by_rank_0() {
 #[test]
 fn shuffled_storage_on_2_ranks_gives_the_serial_id_order_state() {
     let d = tempfile::tempdir().unwrap();
-    let case = write_case(d.path(), "shear-bed.toml", &[("count = 3000", "count = 1500")]);
+    let case = write_case(d.path(), "shear-bed.toml", |c| lattice(c).count = 1500);
     let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "1500", "--set", "parallel.order=\"id\""]);
-    let shuffled = hash_of(2, &case, &d.path().join("p2"), &["--steps", "1500", "--set", "parallel.order=\"shuffled\""]);
+    let shuffled = hash_of(2, &case, &d.path().join("p2"), &["--steps", "1500", "--set", "parallel.order=\"shuffled\"", "--set", "parallel.reorder_interval=0"]);
     assert_eq!(shuffled, serial);
 }

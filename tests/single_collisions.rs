@@ -6,15 +6,16 @@ use common::*;
 
 const SWEEP: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
 
-fn with_e(e: f64) -> String {
-    format!("restitution = {e}")
+/// The case's one material with restitution `e`.
+fn with_e(e: f64) -> impl FnOnce(&mut talus::case::Case) {
+    move |c| c.materials[0].restitution = e
 }
 
 #[test]
 fn sc_wall_and_pair_return_e_in_with_tensile_end_of_contact() {
     for case in ["SC-wall.toml", "SC-wall-hooke.toml", "SC-pair.toml", "SC-pair-hooke.toml"] {
         for e in SWEEP {
-            let s = run_case(case, &[("restitution = 0.5", &with_e(e))]);
+            let s = run_case(case, with_e(e));
             let out = num(&s, "restitution");
             assert!((out - e).abs() < 0.005, "{case} e_in {e}: e_out {out}");
         }
@@ -25,10 +26,10 @@ fn sc_wall_and_pair_return_e_in_with_tensile_end_of_contact() {
 fn clipped_linear_dashpot_returns_the_schwager_poeschel_restitution() {
     // a linear dashpot clipped at zero force: e 0.5 -> 0.550, 0.1 -> 0.253 (DESIGN.md, YADE ViscElMat)
     for (e, expect) in [(0.5, 0.550), (0.1, 0.253)] {
-        let s = run_case("SC-wall-hooke.toml", &[
-            ("restitution = 0.5", &with_e(e)),
-            ("model = \"hooke\"", "model = \"hooke\"\nend_of_contact = \"clip\""),
-        ]);
+        let s = run_case("SC-wall-hooke.toml", |c| {
+            with_e(e)(c);
+            c.contact.end_of_contact = Some(talus::contact::EndOfContact::Clip);
+        });
         let out = num(&s, "restitution");
         assert!((out - expect).abs() < 0.005, "e_in {e}: e_out {out}, expected {expect}");
     }
@@ -38,7 +39,7 @@ fn clipped_linear_dashpot_returns_the_schwager_poeschel_restitution() {
 fn elastic_hertz_impacts_match_hertz_theory() {
     let m = mass();
     for (case, r_eff, m_eff, v) in [("SC-wall.toml", R, m, 0.5), ("SC-pair.toml", R / 2.0, m / 2.0, 1.0)] {
-        let s = run_case(case, &[("restitution = 0.5", "restitution = 1.0")]);
+        let s = run_case(case, with_e(1.0));
         let (d, t, f) = hertz_theory(y_eff(), r_eff, m_eff, v);
         for (k, th) in [("max_overlap_m", d), ("contact_duration_s", t), ("max_normal_force_n", f)] {
             let got = num(&s, k);
@@ -53,7 +54,7 @@ fn hooke_impacts_match_the_linear_closed_form() {
     let m = mass();
     for (case, r_eff, m_eff, v) in [("SC-wall-hooke.toml", R, m, 0.5), ("SC-pair-hooke.toml", R / 2.0, m / 2.0, 1.0)] {
         for e in [1.0, 0.5] {
-            let s = run_case(case, &[("restitution = 0.5", &with_e(e))]);
+            let s = run_case(case, with_e(e));
             let kn = talus::contact::hooke::liggghts_kn(y_eff(), r_eff, m_eff, v);
             let g = talus::contact::hooke::damping_for_restitution(m_eff, kn, e);
             let w0 = (kn / m_eff).sqrt();
@@ -85,8 +86,7 @@ fn oblique_gross_sliding_gives_tangential_restitution_one_minus_mu_one_plus_e_ov
     let (mu, e) = (0.4, 0.5);
     for case in ["SC-oblique.toml", "SC-oblique-hooke.toml"] {
         let th = 80f64.to_radians();
-        let v = format!("velocity = [{}, 0.0, {}]", 0.5 * th.sin(), -0.5 * th.cos());
-        let s = run_case(case, &[("velocity = [0.35355339059327373, 0.0, -0.35355339059327373]", &v)]);
+        let s = run_case(case, |c| list(c)[0].velocity = [0.5 * th.sin(), 0.0, -0.5 * th.cos()]);
         let expect = 1.0 - mu * (1.0 + e) / th.tan();
         let got = num(&s, "tangential_restitution");
         assert!((got / expect - 1.0).abs() < 0.01, "{case}: tangential restitution {got} vs {expect}");
@@ -100,8 +100,7 @@ fn oblique_gross_sliding_gives_tangential_restitution_one_minus_mu_one_plus_e_ov
 /// SC-wall (or its hooke variant) with the sphere spinning about y at `spin` rad/s
 /// and only a normal velocity (0.5 m/s).
 fn spinning_drop(case: &str, spin: f64) -> serde_json::Map<String, serde_json::Value> {
-    let v = "velocity = [0.0, 0.0, -0.5], radius";
-    run_case(case, &[(v, &format!("velocity = [0.0, 0.0, -0.5], spin = [0.0, {spin:?}, 0.0], radius"))])
+    run_case(case, |c| list(c)[0].spin = [0.0, spin, 0.0])
 }
 
 #[test]
@@ -147,7 +146,7 @@ fn a_spinning_sphere_dropped_normally_reports_its_tangential_rebound_and_spin_in
 #[test]
 fn normal_impacts_without_spin_still_report_zero_tangential_figures() {
     for case in ["SC-wall.toml", "SC-pair.toml"] {
-        let s = run_case(case, &[]);
+        let s = run_case(case, |_| {});
         assert_eq!(num(&s, "tangential_rebound_m_s"), 0.0, "{case}");
         assert_eq!(num(&s, "spin_rad_s"), 0.0, "{case}");
         assert_eq!(s["tangential_restitution"], serde_json::Value::Null);

@@ -9,7 +9,8 @@ use talus::run::{run, RunOptions, RunResult};
 
 fn run_in(name: &str, order: &str, extra: &[&str], steps: u64) -> (RunResult, String) {
     let d = tempfile::tempdir().unwrap();
-    let mut sets: Vec<String> = vec![format!("parallel.order=\"{order}\"")];
+    // the order is remade at every list rebuild (the default is every 1,000 steps)
+    let mut sets: Vec<String> = vec![format!("parallel.order=\"{order}\""), "parallel.reorder_interval=0".into()];
     sets.extend(extra.iter().map(|s| s.to_string()));
     let case = Case::load_with(&cases_dir().join(name), &sets).unwrap_or_else(|e| panic!("{e}"));
     let opts = RunOptions { out: d.path().to_path_buf(), max_steps: Some(steps), ..Default::default() };

@@ -3,54 +3,30 @@
 
 mod common;
 use common::*;
+use talus::builder::CaseBuilder;
+use talus::case::{ContactSection, ModelName, OutputSection, ParticleEntry, PhaseSection, TimeStep, WallSection};
+use talus::contact::Convention;
+use talus::dim::Dimension;
+use talus::material::Material;
 
-const DISC_CASE: &str = r#"
-[simulation]
-dimension = "2"
-timestep = 5e-6
-gravity = [0.0, 0.0, 0.0]
-domain = { lo = [-0.02, -0.02, -0.001], hi = [0.02, 0.02, 0.001] }
+/// One 2 mm particle at rest at the origin and the drag paper's cylinder
+/// (diameter 3.175 mm) moving at 0.5 m/s along +x into it; material "m"
+/// (E = 1e6 Pa, nu 0.3, rho 2500 kg/m^3, restitution `e`, friction 0.4).
+fn disc_case(e: f64) -> CaseBuilder {
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: e, friction: 0.4 };
+    CaseBuilder::new(Dimension::Two)
+        .timestep(TimeStep::Seconds(5e-6))
+        .domain([-0.02, -0.02, -0.001], [0.02, 0.02, 0.001])
+        .contact(ContactSection { convention: Convention::Talus, ..ContactSection::new(ModelName::Hertz) })
+        .material(m)
+        .particle_list("m", vec![ParticleEntry::at(1, [0.0, 0.0, 0.0], 0.002)])
+        .wall(WallSection::disc("cylinder", "m", [-0.00370, 0.0, 0.0], 0.0015875).moving([0.5, 0.0, 0.0]))
+        .phase(PhaseSection::new("hit", 0.004))
+        .output(OutputSection { interval: 1e-5, track: vec![1], ..Default::default() })
+}
 
-[contact]
-model = "hertz"
-convention = "talus"
-
-[[material]]
-name = "m"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-density = 2500.0
-restitution = 0.5
-friction = 0.4
-
-[particles]
-material = "m"
-list = [ { id = 1, position = [0.0, 0.0, 0.0], radius = 0.002 } ]
-
-# the drag paper's cylinder (diameter 3.175 mm), moving at 0.5 m/s along +x into the particle
-[[wall]]
-name = "cylinder"
-material = "m"
-disc = { center = [-0.00370, 0.0, 0.0], radius = 0.0015875 }
-velocity = [0.5, 0.0, 0.0]
-
-[[phase]]
-name = "hit"
-duration = 0.004
-
-[output]
-interval = 1e-5
-track = [1]
-"#;
-
-fn disc_case(edits: &[(&str, &str)]) -> talus::sim::Simulation {
-    let mut t = DISC_CASE.to_string();
-    for (a, b) in edits {
-        assert!(t.contains(a));
-        t = t.replacen(a, b, 1);
-    }
-    let c = talus::case::Case::parse(&t, &cases_dir().join("disc.toml")).unwrap_or_else(|e| panic!("{e}"));
-    talus::sim::Simulation::new(c).unwrap_or_else(|e| panic!("{e}"))
+fn disc_sim(e: f64) -> talus::sim::Simulation {
+    sim2d(disc_case(e)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]
@@ -58,7 +34,7 @@ fn a_moving_disc_wall_throws_a_particle_off_with_restitution_e() {
     // in the frame of the (infinitely heavy) wall the particle comes in at -v and leaves at +e v:
     // in the lab frame it leaves at (1 + e) v
     for e in [0.2, 0.5, 0.8] {
-        let mut sim = disc_case(&[("restitution = 0.5", &format!("restitution = {e}"))]);
+        let mut sim = disc_sim(e);
         while sim.time() < 0.004 {
             sim.step().unwrap();
         }
@@ -70,7 +46,7 @@ fn a_moving_disc_wall_throws_a_particle_off_with_restitution_e() {
 
 #[test]
 fn elastic_impact_on_the_disc_follows_hertz_with_the_curved_effective_radius() {
-    let mut sim = disc_case(&[("restitution = 0.5", "restitution = 1.0")]);
+    let mut sim = disc_sim(1.0);
     let mut max_overlap: f64 = 0.0;
     let mut max_force: f64 = 0.0;
     while sim.time() < 0.004 {
@@ -91,16 +67,11 @@ fn elastic_impact_on_the_disc_follows_hertz_with_the_curved_effective_radius() {
 #[test]
 fn two_d_input_out_of_the_plane_is_refused() {
     let bad = [
-        ("position = [0.0, 0.0, 0.0]", "position = [0.0, 0.0, 0.0005]", "particle id 1"),
-        ("velocity = [0.5, 0.0, 0.0]", "velocity = [0.5, 0.0, 0.1]", "wall.cylinder.velocity"),
+        (disc_case(0.5).particle_list("m", vec![ParticleEntry::at(1, [0.0, 0.0, 0.0005], 0.002)]), "particle id 1"),
+        (disc_case(0.5).wall(WallSection::disc("cylinder", "m", [-0.00370, 0.0, 0.0], 0.0015875).moving([0.5, 0.0, 0.1])), "wall.cylinder.velocity"),
     ];
-    for (a, b, key) in bad {
-        let t = DISC_CASE.replacen(a, b, 1);
-        let err = talus::case::Case::parse(&t, &cases_dir().join("disc.toml"))
-            .and_then(talus::sim::Simulation::new)
-            .err()
-            .unwrap_or_else(|| panic!("{b} accepted"))
-            .to_string();
+    for (case, key) in bad {
+        let err = sim2d(case).err().unwrap_or_else(|| panic!("{key} accepted"));
         assert!(err.contains(key) && err.contains("2D"), "{err}");
     }
 }
@@ -108,16 +79,11 @@ fn two_d_input_out_of_the_plane_is_refused() {
 /// Two 1 mm discs touching at the origin, joined as a dumbbell, spinning at
 /// `spin` rad/s and moving at 0.1 m/s along x; no gravity, no walls.
 fn dumbbell(spin: f64) -> talus::sim::Simulation {
-    let parts = format!(
-        r#"list = [
-  {{ id = 1, position = [0.001, 0.0, 0.0], velocity = [0.1, {v}, 0.0], spin = [0.0, 0.0, {spin}], radius = 0.001 }},
-  {{ id = 2, position = [-0.001, 0.0, 0.0], velocity = [0.1, {mv}, 0.0], spin = [0.0, 0.0, {spin}], radius = 0.001 }},
-]
-clumps = [[1, 2]]"#,
-        v = spin * 0.001,
-        mv = -spin * 0.001
-    );
-    case2d(0.5, 0.3, 0.0, &parts, "", 1e-6).unwrap_or_else(|e| panic!("{e}"))
+    let list = vec![
+        ParticleEntry::at(1, [0.001, 0.0, 0.0], 0.001).moving([0.1, spin * 0.001, 0.0]).spinning([0.0, 0.0, spin]),
+        ParticleEntry::at(2, [-0.001, 0.0, 0.0], 0.001).moving([0.1, -spin * 0.001, 0.0]).spinning([0.0, 0.0, spin]),
+    ];
+    sim2d(case2d(0.5, 0.3, 0.0, 1e-6).particle_list("m", list).clumps(vec![[1, 2]])).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]

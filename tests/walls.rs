@@ -3,15 +3,16 @@
 
 mod common;
 use common::*;
+use talus::case::WallSection;
 
 #[test]
 fn moving_wall_launches_a_resting_sphere_at_twice_its_speed() {
     // elastic impact with an infinitely massive wall moving at 0.5 m/s: the sphere leaves at 1.0 m/s
-    let mut sim = sim("SC-wall.toml", &[
-        ("restitution = 0.5", "restitution = 1.0"),
-        ("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, 0.0]"),
-        ("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.5]"),
-    ]);
+    let mut sim = sim("SC-wall.toml", |c| {
+        c.materials[0].restitution = 1.0;
+        list(c)[0].velocity = [0.0; 3];
+        wall(c, "plate").velocity = [0.0, 0.0, 0.5];
+    });
     while sim.time() < 0.004 {
         sim.step().unwrap();
     }
@@ -22,10 +23,10 @@ fn moving_wall_launches_a_resting_sphere_at_twice_its_speed() {
 #[test]
 fn wall_removed_at_a_time_no_longer_acts() {
     // the plate goes at 0.1 ms, before the sphere reaches it: no collision
-    let s = run_case("SC-wall.toml", &[
-        ("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nremove_at = 1e-4"),
-        ("lo = [-0.01, -0.01, -0.001]", "lo = [-0.01, -0.01, -0.01]"),
-    ]);
+    let s = run_case("SC-wall.toml", |c| {
+        wall(c, "plate").remove_at = Some(1e-4);
+        c.simulation.domain.lo = [-0.01, -0.01, -0.01];
+    });
     assert_eq!(num(&s, "restitution"), -1.0, "the sphere must pass unhindered");
     assert_eq!(num(&s, "max_overlap_m"), 0.0);
 }
@@ -46,13 +47,12 @@ fn sphere_dropped_on_the_shared_edge_of_an_stl_square_bounces_once_with_one_cont
     let m = talus::walls::Mesh::new(v, t).unwrap();
     let stl = d.path().join("square.stl");
     m.write_stl(&stl).unwrap();
-    let plane = "plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }";
     // the sphere falls on the diagonal (x = y = 0): one contact, so Hertz's peak overlap
-    let mut mesh_sim = sim("SC-wall.toml", &[
-        ("restitution = 0.5", "restitution = 1.0"),
-        (plane, &format!("stl = \"{}\"", stl.display())),
-        ("[analysis]\nkind = \"collision\"\nparticle = 1\nwall = \"plate\"\n", ""),
-    ]);
+    let mut mesh_sim = sim("SC-wall.toml", |c| {
+        c.materials[0].restitution = 1.0;
+        wall(c, "plate").shape = talus::case::WallShape::Stl(stl.clone());
+        c.analysis = None;
+    });
     let mut max_contacts = 0;
     let mut max_overlap: f64 = 0.0;
     while mesh_sim.time() < 0.004 {
@@ -69,13 +69,13 @@ fn sphere_dropped_on_the_shared_edge_of_an_stl_square_bounces_once_with_one_cont
 #[test]
 fn a_wall_moving_in_from_afar_still_finds_the_sphere() {
     // the plate starts 5 mm below the sphere (far outside the skin) and sweeps up at 0.5 m/s
-    let mut sim = sim("SC-wall.toml", &[
-        ("restitution = 0.5", "restitution = 1.0"),
-        ("velocity = [0.0, 0.0, -0.5]", "velocity = [0.0, 0.0, 0.0]"),
-        ("plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }", "plane = { point = [0.0, 0.0, -0.005], normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.5]"),
-        ("lo = [-0.01, -0.01, -0.001]", "lo = [-0.01, -0.01, -0.01]"),
-        ("duration = 0.004", "duration = 0.016"),
-    ]);
+    let mut sim = sim("SC-wall.toml", |c| {
+        c.materials[0].restitution = 1.0;
+        list(c)[0].velocity = [0.0; 3];
+        *wall(c, "plate") = WallSection::plane("plate", "seed-soft", [0.0, 0.0, -0.005], [0.0, 0.0, 1.0]).moving([0.0, 0.0, 0.5]);
+        c.simulation.domain.lo = [-0.01, -0.01, -0.01];
+        phase(c, "collide").duration = 0.016;
+    });
     while sim.time() < 0.016 {
         sim.step().unwrap();
     }

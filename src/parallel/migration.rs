@@ -191,8 +191,13 @@ impl Parallel {
     }
 
     /// Put the owned particles (no ghosts yet) in the storage order asked for,
-    /// their Gear rows with them.
+    /// their Gear rows with them: in id order always (a merge keeps it), along
+    /// the curve or shuffled when `reorder_now` says so.
     fn reorder(&mut self, p: &mut Particles, gear: &mut GearState) {
+        let now = std::mem::replace(&mut self.reorder_now, false);
+        if !now && self.order != StorageOrder::Id {
+            return;
+        }
         let perm = match self.order {
             StorageOrder::Hilbert => crate::order::hilbert_order(p),
             StorageOrder::Shuffled => {

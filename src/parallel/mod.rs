@@ -83,6 +83,8 @@ pub struct Parallel {
     pub order: crate::order::StorageOrder,
     /// Storage reorders so far (seeds the `shuffled` order).
     reorders: u64,
+    /// Remake the storage order at the next migration (then cleared).
+    pub reorder_now: bool,
 }
 
 fn bin<T: Serialize>(x: &T) -> Vec<u8> {
@@ -111,6 +113,7 @@ impl Parallel {
             stop: None,
             order: Default::default(),
             reorders: 0,
+            reorder_now: true,
         }
     }
 

@@ -2,7 +2,10 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use talus::case::Case;
+use talus::builder::CaseBuilder;
+use talus::case::{Case, ContactSection, LatticeSection, ModelName, ParticleEntry, ParticleSource, PhaseSection, TimeStep, WallSection};
+use talus::dim::Dimension;
+use talus::material::Material;
 use talus::run::{run, RunOptions};
 use talus::sim::Simulation;
 
@@ -10,7 +13,9 @@ pub fn cases_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")
 }
 
-/// A case file's text with string replacements applied (each must match).
+/// A case file's text with string replacements applied (each must match): for
+/// the tests of how a malformed file is reported. Valid changes go through
+/// [`edited`] on the typed values.
 pub fn case_text(name: &str, edits: &[(&str, &str)]) -> String {
     let mut t = std::fs::read_to_string(cases_dir().join(name)).unwrap();
     for (a, b) in edits {
@@ -20,31 +25,63 @@ pub fn case_text(name: &str, edits: &[(&str, &str)]) -> String {
     t
 }
 
+/// A case of `cases/` with `edit` applied to its typed values, validated again
+/// as a case file is.
+pub fn edited(name: &str, edit: impl FnOnce(&mut Case)) -> Case {
+    let path = cases_dir().join(name);
+    let mut case = Case::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    edit(&mut case);
+    CaseBuilder::from_case(case).build(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// Write an edited copy of a case (and the hopper meshes) into `dir`.
-pub fn write_case(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+pub fn write_case(dir: &Path, name: &str, edit: impl FnOnce(&mut Case)) -> PathBuf {
     let m = dir.join("meshes");
     std::fs::create_dir_all(&m).unwrap();
     for f in ["hopper.stl", "box.stl"] {
         std::fs::copy(cases_dir().join("meshes").join(f), m.join(f)).unwrap();
     }
     let path = dir.join(name);
-    std::fs::write(&path, case_text(name, edits)).unwrap();
+    std::fs::write(&path, edited(name, edit).to_toml().unwrap()).unwrap();
     path
 }
 
-pub fn parse(name: &str, text: &str) -> Case {
-    Case::parse(text, &cases_dir().join(name)).unwrap_or_else(|e| panic!("{e}"))
+/// A case of `cases/` with `edit` applied, set up.
+pub fn sim(name: &str, edit: impl FnOnce(&mut Case)) -> Simulation {
+    Simulation::new(edited(name, edit)).unwrap_or_else(|e| panic!("{e}"))
 }
 
-pub fn sim(name: &str, edits: &[(&str, &str)]) -> Simulation {
-    Simulation::new(parse(name, &case_text(name, edits))).unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// Run a case (with edits) to the end; returns summary.json as a map.
-pub fn run_case(name: &str, edits: &[(&str, &str)]) -> serde_json::Map<String, serde_json::Value> {
+/// Run a case (with `edit` applied) to the end; returns summary.json as a map.
+pub fn run_case(name: &str, edit: impl FnOnce(&mut Case)) -> serde_json::Map<String, serde_json::Value> {
     let dir = tempfile::tempdir().unwrap();
     let opts = RunOptions { out: dir.path().to_path_buf(), ..Default::default() };
-    run(parse(name, &case_text(name, edits)), &opts).unwrap_or_else(|e| panic!("{e}")).summary
+    run(edited(name, edit), &opts).unwrap_or_else(|e| panic!("{e}")).summary
+}
+
+/// The particles of a case given one by one (`particles.list`).
+pub fn list(c: &mut Case) -> &mut Vec<ParticleEntry> {
+    match &mut c.particles.source {
+        ParticleSource::List(l) => l,
+        s => panic!("particles given by {s:?}, not by a list"),
+    }
+}
+
+/// The lattice of a case whose particles come from `particles.lattice`.
+pub fn lattice(c: &mut Case) -> &mut LatticeSection {
+    match &mut c.particles.source {
+        ParticleSource::Lattice(l) => l,
+        s => panic!("particles given by {s:?}, not by a lattice"),
+    }
+}
+
+/// The wall of that name.
+pub fn wall<'a>(c: &'a mut Case, name: &str) -> &'a mut WallSection {
+    c.walls.iter_mut().find(|w| w.name == name).unwrap_or_else(|| panic!("no wall {name}"))
+}
+
+/// The phase of that name.
+pub fn phase<'a>(c: &'a mut Case, name: &str) -> &'a mut PhaseSection {
+    c.phases.iter_mut().find(|p| p.name == name).unwrap_or_else(|| panic!("no phase {name}"))
 }
 
 pub fn num(m: &serde_json::Map<String, serde_json::Value>, k: &str) -> f64 {
@@ -73,41 +110,22 @@ pub fn mass() -> f64 {
     RHO * 4.0 / 3.0 * std::f64::consts::PI * R.powi(3)
 }
 
-/// A 2D case: material (E = 1e9, nu 0.3, rho 3900, restitution `e`, friction
-/// `mu`), the given particle list and extra lines, no gravity unless given.
-pub fn case2d(e: f64, mu: f64, gravity: f64, particles: &str, extra: &str, dt: f64) -> Result<talus::sim::Simulation, String> {
-    let t = format!(
-        r#"
-[simulation]
-dimension = "2"
-timestep = {dt:e}
-gravity = [0.0, {g:e}, 0.0]
-domain = {{ lo = [-0.05, -0.05, -0.001], hi = [0.05, 0.05, 0.001] }}
+/// A 2D case (as `cases/2d.toml`): material "m" (E = 1e9 Pa, nu 0.3, rho 3900
+/// kg/m^3, restitution `e`, friction `mu`), Hertz contact, gravity `gravity`
+/// (m/s^2) along -y, time step `dt` (s), one phase "run" of 1 s. Add the particles
+/// and walls, then set it up with [`sim2d`].
+pub fn case2d(e: f64, mu: f64, gravity: f64, dt: f64) -> CaseBuilder {
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e9, poisson_ratio: 0.3, density: 3900.0, restitution: e, friction: mu };
+    CaseBuilder::new(Dimension::Two)
+        .timestep(TimeStep::Seconds(dt))
+        .gravity([0.0, -gravity, 0.0])
+        .domain([-0.05, -0.05, -0.001], [0.05, 0.05, 0.001])
+        .contact(ContactSection::new(ModelName::Hertz))
+        .material(m)
+        .phase(PhaseSection::new("run", 1.0))
+}
 
-[contact]
-model = "hertz"
-
-[[material]]
-name = "m"
-youngs_modulus = 1.0e9
-poisson_ratio = 0.3
-density = 3900.0
-restitution = {e}
-friction = {mu}
-
-[particles]
-material = "m"
-{particles}
-
-{extra}
-
-[[phase]]
-name = "run"
-duration = 1.0
-"#,
-        g = -gravity
-    );
-    talus::case::Case::parse(&t, &cases_dir().join("2d.toml"))
-        .and_then(talus::sim::Simulation::new)
-        .map_err(|e| e.to_string())
+/// Build a case (named `cases/2d.toml`) and set up its simulation; the error as text.
+pub fn sim2d(b: CaseBuilder) -> Result<Simulation, String> {
+    b.build(&cases_dir().join("2d.toml")).and_then(Simulation::new).map_err(|e| e.to_string())
 }
