@@ -184,14 +184,15 @@ impl Analysis {
             Analysis::None => {}
             Analysis::Collision(c) => {
                 let (a, b) = pair_of(tracked);
-                let overlap = match (b, c.wall) {
+                // `Analysis::new` takes a partner particle or an active plane
+                // wall; anything else (a removed wall) is out of contact
+                let overlap = match (b, c.wall.map(|w| &st.walls[w])) {
                     (Some(b), _) => a.radius + b.radius - (a.pos - b.pos).norm(),
-                    (_, Some(w)) if !st.walls[w].active => -a.radius,
-                    (_, Some(w)) => match &st.walls[w].shape {
-                        Shape::Plane(pl) => a.radius - pl.distance(&a.pos),
-                        _ => unreachable!("validated: a plane"),
+                    (_, Some(w)) => match &w.shape {
+                        Shape::Plane(pl) if w.active => a.radius - pl.distance(&a.pos),
+                        _ => -a.radius,
                     },
-                    _ => unreachable!(),
+                    (None, None) => -a.radius,
                 };
                 let t = st.time;
                 if let Some((t0, o0)) = c.prev {

@@ -447,10 +447,10 @@ pub struct ParallelSection {
     /// Steps between load checks.
     #[serde(default = "default_balance_interval")]
     pub balance_interval: u64,
-    /// How owned particles are kept in storage: `hilbert` (along a Hilbert
-    /// curve, remade at every list rebuild), `id`, or `shuffled` (a random
-    /// order at every rebuild, to check). Speed only: results are the same bit
-    /// for bit.
+    /// How owned particles are kept in storage: `cells` (by cell of the
+    /// neighbour grid, x fastest), `hilbert` (along a Hilbert curve), `id`, or
+    /// `shuffled` (a random order, to check). Speed only: results are the same
+    /// bit for bit.
     #[serde(default)]
     pub order: crate::order::StorageOrder,
     /// Steps between remakes of the storage order, at the next list rebuild

@@ -1,6 +1,6 @@
 //! Results do not depend on how particles are stored: the same `state_hash`
-//! and the same probe rows whether owned particles are kept in id order, along
-//! a Hilbert curve, or shuffled at random at every list rebuild.
+//! and the same probe rows whether owned particles are kept in id order, by
+//! grid cell, along a Hilbert curve, or shuffled at random at every list rebuild.
 
 mod common;
 use common::*;
@@ -24,20 +24,24 @@ fn is_id_order(r: &RunResult) -> bool {
 }
 
 #[test]
-fn a_sheared_bed_gives_the_same_state_in_id_hilbert_and_shuffled_storage() {
+fn a_sheared_bed_gives_the_same_state_in_id_cell_hilbert_and_shuffled_storage() {
     let small = ["particles.lattice.count=1500"];
     let (id, p_id) = run_in("shear-bed.toml", "id", &small, 1500);
     let (hilbert, p_h) = run_in("shear-bed.toml", "hilbert", &small, 1500);
+    let (cells, p_c) = run_in("shear-bed.toml", "cells", &small, 1500);
     let (shuffled, p_s) = run_in("shear-bed.toml", "shuffled", &small, 1500);
     // the orders really differ
     assert!(is_id_order(&id));
-    assert!(!is_id_order(&hilbert) && !is_id_order(&shuffled));
+    assert!(!is_id_order(&hilbert) && !is_id_order(&cells) && !is_id_order(&shuffled));
     assert_ne!(hilbert.sim.particles().id, shuffled.sim.particles().id);
+    assert_ne!(hilbert.sim.particles().id, cells.sim.particles().id);
     assert!(hilbert.sim.state().nl.builds > 5, "several rebuilds (and so reorders) happened");
     let h = |r: &RunResult| r.summary["state_hash"].as_str().unwrap().to_string();
     assert_eq!(h(&hilbert), h(&id));
+    assert_eq!(h(&cells), h(&id));
     assert_eq!(h(&shuffled), h(&id));
     assert_eq!(p_h, p_id, "probe rows (wall loads, energies, contacts) differ between storage orders");
+    assert_eq!(p_c, p_id);
     assert_eq!(p_s, p_id);
 }
 

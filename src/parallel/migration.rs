@@ -200,6 +200,7 @@ impl Parallel {
         }
         let perm = match self.order {
             StorageOrder::Hilbert => crate::order::hilbert_order(p),
+            StorageOrder::Cells => crate::order::cell_order(p, self.range),
             StorageOrder::Shuffled => {
                 self.reorders += 1;
                 crate::order::shuffled_order(p.len(), self.reorders ^ ((self.rank() as u64) << 40))
