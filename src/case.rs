@@ -457,6 +457,11 @@ pub struct ParallelSection {
     /// (0: at every rebuild).
     #[serde(default = "default_reorder_interval")]
     pub reorder_interval: u64,
+    /// Threads per rank for the force sweep (`talus run --threads N`); default:
+    /// the cores available to the process, shared among the ranks. Results
+    /// are the same bit for bit for any count.
+    #[serde(default)]
+    pub threads: Option<usize>,
 }
 
 fn default_reorder_interval() -> u64 {
@@ -479,6 +484,7 @@ impl Default for ParallelSection {
             balance_interval: default_balance_interval(),
             order: Default::default(),
             reorder_interval: default_reorder_interval(),
+            threads: None,
         }
     }
 }
@@ -711,6 +717,11 @@ impl Case {
         }
         if par.balance_interval == 0 {
             return Err(self.err("parallel.balance_interval", 0, "must be at least 1 step"));
+        }
+        if let Some(t) = par.threads {
+            if !(1..=4096).contains(&t) {
+                return Err(self.err("parallel.threads", t, "must be from 1 to 4096 threads per rank"));
+            }
         }
         if let Some(g) = par.grid {
             if g.iter().any(|&n| n == 0) {

@@ -15,7 +15,12 @@ use crate::fixed::from_fixed;
 use crate::material::{PairMaterial, PairTable};
 use crate::neighbor::NeighborList;
 use crate::particles::Particles;
-use crate::walls::{carry_history, merge_coincident, Wall, WallHit};
+use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
+use rayon::prelude::*;
+
+/// Fewest pairs or particles a thread takes at once. A sweep over at most
+/// 2 MIN_LEN of each is never split, so it runs on the calling thread.
+pub const MIN_LEN: usize = 256;
 
 /// Everything the sweep needs besides state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -141,11 +146,11 @@ fn sweep<L: ContactLaw>(
     ContactCount { owned: owned + wall_contacts, evaluated: evaluated + wall_contacts }
 }
 
-/// Pairs in any order, each contact's force and torques kept in `out`; then
-/// every owned particle sums its own in order of its partners' ids
-/// (`NeighborList::incident`): the same sums, bit for bit, whatever the order
-/// of the pairs or of the particles in storage. Returns (contacts evaluated,
-/// contacts owned).
+/// Pairs in any order (in parallel over the pool's threads), each contact's
+/// force and torques kept in `pair_out`; then every owned particle sums its own
+/// in order of its partners' ids (`NeighborList::incident`): the same sums, bit
+/// for bit, whatever the order of the pairs or of the particles in storage, and
+/// whatever the thread count. Returns (contacts evaluated, contacts owned).
 fn pair_forces<L: ContactLaw>(
     law: L,
     s: &SweepSettings,
@@ -154,48 +159,54 @@ fn pair_forces<L: ContactLaw>(
     table: &PairTable,
     shapes: &Shapes,
 ) -> (usize, usize) {
-    let (mut evaluated, mut owned) = (0usize, 0usize);
     let n_own = p.owned();
     let (consts, _) = nl.law_constants.get::<L>();
     // every entry is written below (touching or not): no clearing pass
-    let out = &mut nl.pair_out;
-    out.resize(nl.pairs.len(), None);
-    for (k, &(a, b)) in nl.pairs.iter().enumerate() {
-        let (a, b) = (a as usize, b as usize);
-        let hist = &mut nl.pair_hist[k];
-        let Some(g) = shapes.pair(p, a, b) else {
-            if *hist != Vec3::zeros() {
-                *hist = Vec3::zeros();
+    nl.pair_out.resize(nl.pairs.len(), None);
+    let pr: &Particles = p;
+    let counts = nl
+        .pairs
+        .par_iter()
+        .zip(nl.pair_hist.par_iter_mut())
+        .zip(nl.pair_out.par_iter_mut())
+        .zip(consts.par_iter().zip(nl.pair_inertia.par_iter()))
+        .with_min_len(MIN_LEN)
+        .map(|(((&(a, b), hist), out), (pair, &pi))| {
+            let (a, b) = (a as usize, b as usize);
+            let Some(g) = shapes.pair(pr, a, b) else {
+                if *hist != Vec3::zeros() {
+                    *hist = Vec3::zeros();
+                }
+                *out = None;
+                return (0, 0);
+            };
+            let pm = table.get(pr.material[a], pr.material[b]);
+            let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
+            *out = Some(contact(law, &s.opts, pm, pi, pair, &g, &m, hist, s.dt));
+            (1, (a < n_own) as usize)
+        })
+        .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
+    let (start, incident, out) = (&nl.incident_start, &nl.incident, &nl.pair_out);
+    p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(MIN_LEN).for_each(
+        |(i, (f, t))| {
+            for &e in &incident[start[i] as usize..start[i + 1] as usize] {
+                let Some(c) = &out[(e / 2) as usize] else { continue };
+                if e % 2 == 0 {
+                    *f += c.force;
+                    *t += c.torque_i;
+                } else {
+                    *f -= c.force;
+                    *t += c.torque_j;
+                }
             }
-            out[k] = None;
-            continue;
-        };
-        evaluated += 1;
-        owned += (a < n_own) as usize;
-        let pm = table.get(p.material[a], p.material[b]);
-        let m = Motion { v_i: p.vel[a], w_i: p.omega[a], v_j: p.vel[b], w_j: p.omega[b] };
-        out[k] = Some(contact(law, &s.opts, pm, nl.pair_inertia[k], &consts[k], &g, &m, hist, s.dt));
-    }
-    for i in 0..n_own {
-        let (lo, hi) = (nl.incident_start[i] as usize, nl.incident_start[i + 1] as usize);
-        let (mut f, mut t) = (p.force[i], p.torque[i]);
-        for &e in &nl.incident[lo..hi] {
-            let Some(c) = &out[(e / 2) as usize] else { continue };
-            if e % 2 == 0 {
-                f += c.force;
-                t += c.torque_i;
-            } else {
-                f -= c.force;
-                t += c.torque_j;
-            }
-        }
-        p.force[i] = f;
-        p.torque[i] = t;
-    }
-    (evaluated, owned)
+        },
+    );
+    counts
 }
 
-/// Walls, per owned particle in candidate order; returns the contacts.
+/// Walls, per owned particle in candidate order (particles in parallel; each
+/// thread sums its part of every wall's load exactly, in fixed point, so the
+/// total is the same for any thread count); returns the contacts.
 fn wall_forces<L: ContactLaw>(
     law: L,
     s: &SweepSettings,
@@ -205,46 +216,76 @@ fn wall_forces<L: ContactLaw>(
     table: &PairTable,
     shapes: &Shapes,
 ) -> usize {
-    for w in walls.iter_mut() {
-        w.load = [0; 6];
-    }
+    let n_own = p.owned();
     let (_, consts) = nl.law_constants.get::<L>();
-    let mut contacts = 0usize;
-    let mut hits: Vec<Option<WallHit>> = Vec::with_capacity(16);
-    for i in 0..p.owned() {
-        let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
-        if lo == hi {
-            continue;
-        }
-        // all of this particle's wall contacts first, so that coincident ones can
-        // be merged and history can follow a contact from one triangle to the next
-        hits.clear();
-        for &(wi, feat) in &nl.wall_feat[lo..hi] {
-            hits.push(shapes.wall_hit(p, i, &walls[wi as usize], feat));
-        }
-        merge_coincident(&nl.wall_feat[lo..hi], &mut hits, p.radius[i]);
-        carry_history(&nl.wall_feat[lo..hi], &hits, &mut nl.wall_hist[lo..hi]);
-        for (k, hit) in hits.iter().enumerate() {
-            let hist = &mut nl.wall_hist[lo + k];
-            let Some(hit) = hit else {
-                *hist = Vec3::zeros();
-                continue;
-            };
-            let wall = &mut walls[nl.wall_feat[lo + k].0 as usize];
-            contacts += 1;
-            let g = shapes.wall(p, i, wall, hit, s.opts.wall_arm_overlap);
-            let pm = table.get(p.material[i], wall.material);
-            let m = Motion { v_i: p.vel[i], w_i: p.omega[i], v_j: wall.velocity, w_j: Vec3::zeros() };
-            let c = contact(law, &s.opts, pm, nl.wall_inertia[lo + k], &consts[lo + k], &g, &m, hist, s.dt);
-            p.force[i] += c.force;
-            p.torque[i] += c.torque_i;
-            // the force acts on the wall at the same point as on the particle
-            wall.add_load(g.point(p.pos[i]), &c);
-        }
+    // each owned particle's slice of the wall history
+    let mut hist: Vec<&mut [Vec3]> = Vec::with_capacity(n_own);
+    let mut rest: &mut [Vec3] = &mut nl.wall_hist;
+    for i in 0..n_own.min(nl.wall_start.len().saturating_sub(1)) {
+        let len = (nl.wall_start[i + 1] - nl.wall_start[i]) as usize;
+        let (h, r) = std::mem::take(&mut rest).split_at_mut(len);
+        hist.push(h);
+        rest = r;
     }
-    for w in walls.iter_mut() {
-        w.force = Vec3::new(from_fixed(w.load[0]), from_fixed(w.load[1]), from_fixed(w.load[2]));
-        w.torque = Vec3::new(from_fixed(w.load[3]), from_fixed(w.load[4]), from_fixed(w.load[5]));
+    let mut force = std::mem::take(&mut p.force);
+    let mut torque = std::mem::take(&mut p.torque);
+    let pr: &Particles = p;
+    let ws: &[Wall] = walls;
+    let (wall_start, wall_feat, wall_inertia) = (&nl.wall_start, &nl.wall_feat, &nl.wall_inertia);
+    let zero_loads = || (vec![[0i128; 6]; ws.len()], 0usize, Vec::<Option<WallHit>>::with_capacity(16));
+    let (loads, contacts, _) = hist
+        .into_par_iter()
+        .zip(force[..n_own].par_iter_mut().zip(torque[..n_own].par_iter_mut()))
+        .enumerate()
+        .with_min_len(MIN_LEN)
+        .fold(zero_loads, |(mut loads, mut contacts, mut hits), (i, (hist, (f, t)))| {
+            let (lo, hi) = (wall_start[i] as usize, wall_start[i + 1] as usize);
+            if lo == hi {
+                return (loads, contacts, hits);
+            }
+            // all of this particle's wall contacts first, so that coincident ones can
+            // be merged and history can follow a contact from one triangle to the next
+            hits.clear();
+            for &(wi, feat) in &wall_feat[lo..hi] {
+                hits.push(shapes.wall_hit(pr, i, &ws[wi as usize], feat));
+            }
+            merge_coincident(&wall_feat[lo..hi], &mut hits, pr.radius[i]);
+            carry_history(&wall_feat[lo..hi], &hits, hist);
+            for (k, hit) in hits.iter().enumerate() {
+                let h = &mut hist[k];
+                let Some(hit) = hit else {
+                    *h = Vec3::zeros();
+                    continue;
+                };
+                let wi = wall_feat[lo + k].0 as usize;
+                let wall = &ws[wi];
+                contacts += 1;
+                let g = shapes.wall(pr, i, wall, hit, s.opts.wall_arm_overlap);
+                let pm = table.get(pr.material[i], wall.material);
+                let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity, w_j: Vec3::zeros() };
+                let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, s.dt);
+                *f += c.force;
+                *t += c.torque_i;
+                // the force acts on the wall at the same point as on the particle
+                add_load(&mut loads[wi], g.point(pr.pos[i]), &c);
+            }
+            (loads, contacts, hits)
+        })
+        .map(|(loads, contacts, _)| (loads, contacts, Vec::new()))
+        .reduce(zero_loads, |(mut a, ca, _), (b, cb, _)| {
+            for (x, y) in a.iter_mut().zip(&b) {
+                for k in 0..6 {
+                    x[k] += y[k];
+                }
+            }
+            (a, ca + cb, Vec::new())
+        });
+    p.force = std::mem::take(&mut force);
+    p.torque = std::mem::take(&mut torque);
+    for (w, l) in walls.iter_mut().zip(loads) {
+        w.load = l;
+        w.force = Vec3::new(from_fixed(l[0]), from_fixed(l[1]), from_fixed(l[2]));
+        w.torque = Vec3::new(from_fixed(l[3]), from_fixed(l[4]), from_fixed(l[5]));
     }
     contacts
 }

@@ -42,6 +42,10 @@ enum Cmd {
         /// `wall.gate.velocity=[0,0,-0.1]`), VALUE a TOML value. Repeatable.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
+        /// Threads per rank (the case's `[parallel] threads`; default: the
+        /// cores available, shared among the ranks). Results do not depend on it.
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
     },
     /// Run a drag case (the drag paper, CASES.md D2) over its seeded beds.
     Drag {
@@ -99,7 +103,7 @@ fn main() -> ExitCode {
 
 fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
     match cli.cmd {
-        Cmd::Run { case, out, steps, restart, quiet, balance, sets } => {
+        Cmd::Run { case, out, steps, restart, quiet, balance, sets, threads } => {
             let root = comm.is_root();
             let steps = steps
                 .map(|s| {
@@ -108,6 +112,11 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
                     })
                 })
                 .transpose()?;
+            let mut sets = sets;
+            if let Some(t) = threads {
+                // checked with the case's other values
+                sets.push(format!("parallel.threads={t}"));
+            }
             let mut c = Case::load_with(&case, &sets)?;
             if let Some(b) = balance {
                 c.parallel.balance = serde_json::from_value(serde_json::Value::String(b.clone())).map_err(|_| {

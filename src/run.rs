@@ -152,6 +152,7 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
     summary.insert("case".into(), json!(sim.case().path.display().to_string()));
     summary.insert("particles".into(), json!(n as u64));
     summary.insert("ranks".into(), json!(sim.parallel().size()));
+    summary.insert("threads".into(), json!(sim.threads()));
     summary.insert("grid".into(), json!(sim.parallel().dec.grid()));
     summary.insert("balance".into(), json!(sim.case().parallel.balance));
     summary.insert("rebalances".into(), json!(sim.parallel().rebalances));

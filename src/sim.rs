@@ -80,6 +80,8 @@ pub struct Simulation {
     energies: (f64, f64),
     /// The first step at whose list rebuild the storage order is remade.
     next_reorder: u64,
+    /// This rank's threads (the force sweep runs on them).
+    pool: rayon::ThreadPool,
 }
 
 /// Rayleigh time of a sphere: pi R sqrt(rho / G) / (0.1631 nu + 0.8766).
@@ -149,7 +151,13 @@ impl Simulation {
             analysis,
             clumps,
         };
-        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0 })
+        let pool = thread_pool(&case, &par)?;
+        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool })
+    }
+
+    /// Threads this rank computes forces on.
+    pub fn threads(&self) -> usize {
+        self.pool.current_num_threads()
     }
 
     /// The case this simulation was built from.
@@ -315,8 +323,15 @@ impl Simulation {
     }
 
     fn forces(&mut self) {
-        let st = &mut self.state;
-        let c = compute_forces(&self.set.sweep, &mut st.p, &mut st.walls, &mut st.nl, &self.table);
+        let (st, set, table) = (&mut self.state, &self.set, &self.table);
+        // a small system runs on this thread (handing it to the pool would cost
+        // more than the sweep); a larger one on the rank's threads
+        let small = st.p.len().max(st.nl.pairs.len()) <= 2 * crate::forces::MIN_LEN;
+        let c = if small {
+            compute_forces(&set.sweep, &mut st.p, &mut st.walls, &mut st.nl, table)
+        } else {
+            self.pool.install(|| compute_forces(&set.sweep, &mut st.p, &mut st.walls, &mut st.nl, table))
+        };
         st.contacts = c.owned;
         self.par.evaluated = c.evaluated;
     }
@@ -586,6 +601,17 @@ fn list_inits(path: &str, list: &[ParticleEntry]) -> Result<Vec<ParticleInit>, T
             })
         })
         .collect()
+}
+
+/// The rank's threads: `[parallel] threads`, or the cores available to the
+/// process shared among the ranks (at least one each).
+fn thread_pool(case: &Case, par: &Parallel) -> Result<rayon::ThreadPool, TalusError> {
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let n = case.parallel.threads.unwrap_or((cores / par.size()).max(1));
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| TalusError::Run(format!("{}: cannot start {n} threads: {e}", case.path.display())))
 }
 
 /// The walls of a case, in the order the case gives them.

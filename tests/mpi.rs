@@ -167,3 +167,15 @@ fn shuffled_storage_on_2_ranks_gives_the_serial_id_order_state() {
     let shuffled = hash_of(2, &case, &d.path().join("p2"), &["--steps", "1500", "--set", "parallel.order=\"shuffled\"", "--set", "parallel.reorder_interval=0"]);
     assert_eq!(shuffled, serial);
 }
+
+#[test]
+fn ranks_times_threads_give_the_serial_single_thread_state() {
+    let d = tempfile::tempdir().unwrap();
+    let case = write_case(d.path(), "H1-small.toml", |c| {
+        lattice(c).count = 1500;
+        c.output.snapshot_interval = None;
+    });
+    let serial = hash_of(0, &case, &d.path().join("s"), &["--steps", "1500", "--threads", "1"]);
+    let two_by_two = hash_of(2, &case, &d.path().join("p2"), &["--steps", "1500", "--threads", "2"]);
+    assert_eq!(two_by_two, serial, "2 ranks x 2 threads differ from 1 rank x 1 thread");
+}

@@ -53,3 +53,16 @@ fn gear_derivatives_move_with_their_particles_when_storage_is_shuffled() {
     assert!(!is_id_order(&shuffled));
     assert_eq!(shuffled.summary["state_hash"], id.summary["state_hash"]);
 }
+
+#[test]
+fn a_sheared_bed_gives_the_same_state_on_1_2_and_3_threads() {
+    let mut hashes = Vec::new();
+    for t in [1, 2, 3] {
+        let threads = format!("parallel.threads={t}");
+        let (r, probes) = run_in("shear-bed.toml", "cells", &["particles.lattice.count=1500", &threads], 1500);
+        assert_eq!(r.summary["threads"], t);
+        hashes.push((r.summary["state_hash"].clone(), probes));
+    }
+    assert_eq!(hashes[1], hashes[0], "2 threads differ from 1");
+    assert_eq!(hashes[2], hashes[0], "3 threads differ from 1");
+}

@@ -256,17 +256,7 @@ impl Wall {
     /// to the contact point (a couple; zero unless the law has one).
     #[inline(always)]
     pub fn add_load(&mut self, point: Vec3, c: &ContactForce) {
-        let t = point.cross(&c.force);
-        for k in 0..3 {
-            self.load[k] -= to_fixed(c.force[k]);
-            self.load[3 + k] -= to_fixed(t[k]);
-        }
-        // (+-0 for a force alone: adding it would add the integer 0)
-        if c.torque_j != Vec3::zeros() {
-            for k in 0..3 {
-                self.load[3 + k] += to_fixed(c.torque_j[k]);
-            }
-        }
+        add_load(&mut self.load, point, c);
     }
 
     /// Radius of curvature of the wall's surface (None: flat).
@@ -275,6 +265,24 @@ impl Wall {
         match &self.shape {
             Shape::Disc(b) => Some(b.radius),
             _ => None,
+        }
+    }
+}
+
+/// Add a contact's reaction to a wall load `[Fx, Fy, Fz, Tx, Ty, Tz]` (exact
+/// fixed point, see `crate::fixed`): -F at `point`, and the law's torque on
+/// the wall (zero unless the law has one).
+#[inline(always)]
+pub fn add_load(load: &mut [i128; 6], point: Vec3, c: &ContactForce) {
+    let t = point.cross(&c.force);
+    for k in 0..3 {
+        load[k] -= to_fixed(c.force[k]);
+        load[3 + k] -= to_fixed(t[k]);
+    }
+    // (+-0 for a force alone: adding it would add the integer 0)
+    if c.torque_j != Vec3::zeros() {
+        for k in 0..3 {
+            load[3 + k] += to_fixed(c.torque_j[k]);
         }
     }
 }
