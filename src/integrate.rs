@@ -9,7 +9,9 @@
 //!   angular velocity (first-order equation, 95/288, 1, 25/24, 35/72, 5/48, 1/120).
 
 use crate::dim::{Dimension, Vec3};
+use crate::forces::MIN_LEN;
 use crate::particles::Particles;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -20,14 +22,23 @@ pub enum IntegratorKind {
     Gear,
 }
 
-/// Velocity Verlet: first half (kick and drift).
+/// Velocity Verlet: first half (kick and drift), particles in parallel on
+/// the current thread pool (each particle's update is its own).
 pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
     let h = 0.5 * dt;
-    for i in 0..p.owned() {
-        p.vel[i] = dim.project_linear(p.vel[i] + p.force[i] * (h * p.inv_mass[i]));
-        p.omega[i] = dim.project_angular(p.omega[i] + p.torque[i] * (h * p.inv_inertia[i]));
-        p.pos[i] += p.vel[i] * dt;
-    }
+    let n = p.owned();
+    let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
+    p.vel[..n]
+        .par_iter_mut()
+        .zip(p.omega[..n].par_iter_mut())
+        .zip(p.pos[..n].par_iter_mut())
+        .enumerate()
+        .with_min_len(MIN_LEN)
+        .for_each(|(i, ((v, w), x))| {
+            *v = dim.project_linear(*v + force[i] * (h * inv_mass[i]));
+            *w = dim.project_angular(*w + torque[i] * (h * inv_inertia[i]));
+            *x += *v * dt;
+        });
     if dim == Dimension::Two {
         // orientation (ellipses); spin is about z only
         for i in 0..p.owned() {
@@ -36,13 +47,15 @@ pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
     }
 }
 
-/// Velocity Verlet: second half kick, after the forces.
+/// Velocity Verlet: second half kick, after the forces (particles in parallel).
 pub fn verlet_second(p: &mut Particles, dt: f64, dim: Dimension) {
     let h = 0.5 * dt;
-    for i in 0..p.owned() {
-        p.vel[i] = dim.project_linear(p.vel[i] + p.force[i] * (h * p.inv_mass[i]));
-        p.omega[i] = dim.project_angular(p.omega[i] + p.torque[i] * (h * p.inv_inertia[i]));
-    }
+    let n = p.owned();
+    let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
+    p.vel[..n].par_iter_mut().zip(p.omega[..n].par_iter_mut()).enumerate().with_min_len(MIN_LEN).for_each(|(i, (v, w))| {
+        *v = dim.project_linear(*v + force[i] * (h * inv_mass[i]));
+        *w = dim.project_angular(*w + torque[i] * (h * inv_inertia[i]));
+    });
 }
 
 /// Scaled derivatives for Gear: r[k] = dt^k / k! d^k x / dt^k, w[k] likewise for omega.

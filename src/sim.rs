@@ -322,6 +322,17 @@ impl Simulation {
         Ok(())
     }
 
+    /// Run `f` on the particles: on the rank's threads, or on this thread for
+    /// a small system (handing it to the pool would cost more than the work).
+    fn on_threads(&mut self, f: impl FnOnce(&mut Particles) + Send) {
+        if self.state.p.len() <= 2 * crate::forces::MIN_LEN {
+            f(&mut self.state.p)
+        } else {
+            let p = &mut self.state.p;
+            self.pool.install(|| f(p))
+        }
+    }
+
     fn forces(&mut self) {
         let (st, set, table) = (&mut self.state, &self.set, &self.table);
         // a small system runs on this thread (handing it to the pool would cost
@@ -418,7 +429,7 @@ impl Simulation {
         let dim = self.set.dim;
         match self.set.integrator {
             IntegratorKind::Verlet => {
-                integrate::verlet_first(&mut self.state.p, dt, dim);
+                self.on_threads(|p| integrate::verlet_first(p, dt, dim));
                 if !self.state.clumps.is_empty() {
                     self.state.clumps.first_half(&mut self.state.p, dt);
                 }
@@ -437,7 +448,7 @@ impl Simulation {
         self.forces();
         match self.set.integrator {
             IntegratorKind::Verlet => {
-                integrate::verlet_second(&mut self.state.p, dt, dim);
+                self.on_threads(|p| integrate::verlet_second(p, dt, dim));
                 if !self.state.clumps.is_empty() {
                     self.state.clumps.second_half(&mut self.state.p, dt);
                 }
