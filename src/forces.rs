@@ -13,7 +13,7 @@ use crate::contact::{dispatch, ContactForce, ContactGeom, ContactLaw, ContactOpt
 use crate::dim::Vec3;
 use crate::fixed::from_fixed;
 use crate::material::{PairMaterial, PairTable};
-use crate::neighbor::NeighborList;
+use crate::neighbor::{NeighborList, PairOut};
 use crate::particles::Particles;
 use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
 use rayon::prelude::*;
@@ -161,42 +161,49 @@ fn pair_forces<L: ContactLaw>(
 ) -> (usize, usize) {
     let n_own = p.owned();
     let (consts, _) = nl.law_constants.get::<L>();
-    // every entry is written below (touching or not): no clearing pass
-    nl.pair_out.resize(nl.pairs.len(), None);
+    // the flags are written for every pair; the forces for touching pairs only
+    nl.pair_touch.resize(nl.pairs.len(), false);
+    nl.pair_out.resize(nl.pairs.len(), PairOut::default());
     let pr: &Particles = p;
     let counts = nl
         .pairs
         .par_iter()
         .zip(nl.pair_hist.par_iter_mut())
-        .zip(nl.pair_out.par_iter_mut())
+        .zip(nl.pair_touch.par_iter_mut().zip(nl.pair_out.par_iter_mut()))
         .zip(consts.par_iter().zip(nl.pair_inertia.par_iter()))
         .with_min_len(MIN_LEN)
-        .map(|(((&(a, b), hist), out), (pair, &pi))| {
+        .map(|(((&(a, b), hist), (touch, out)), (pair, &pi))| {
             let (a, b) = (a as usize, b as usize);
             let Some(g) = shapes.pair(pr, a, b) else {
                 if *hist != Vec3::zeros() {
                     *hist = Vec3::zeros();
                 }
-                *out = None;
+                *touch = false;
                 return (0, 0);
             };
             let pm = table.get(pr.material[a], pr.material[b]);
             let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
-            *out = Some(contact(law, &s.opts, pm, pi, pair, &g, &m, hist, s.dt));
+            let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, s.dt);
+            *touch = true;
+            *out = PairOut { force: c.force, torque_a: c.torque_i, torque_b: c.torque_j };
             (1, (a < n_own) as usize)
         })
         .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
-    let (start, incident, out) = (&nl.incident_start, &nl.incident, &nl.pair_out);
+    let (start, incident, touch, out) = (&nl.incident_start, &nl.incident, &nl.pair_touch, &nl.pair_out);
     p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(MIN_LEN).for_each(
         |(i, (f, t))| {
             for &e in &incident[start[i] as usize..start[i + 1] as usize] {
-                let Some(c) = &out[(e / 2) as usize] else { continue };
+                let k = (e / 2) as usize;
+                if !touch[k] {
+                    continue;
+                }
+                let c = &out[k];
                 if e % 2 == 0 {
                     *f += c.force;
-                    *t += c.torque_i;
+                    *t += c.torque_a;
                 } else {
                     *f -= c.force;
-                    *t += c.torque_j;
+                    *t += c.torque_b;
                 }
             }
         },
@@ -204,9 +211,10 @@ fn pair_forces<L: ContactLaw>(
     counts
 }
 
-/// Walls, per owned particle in candidate order (particles in parallel; each
-/// thread sums its part of every wall's load exactly, in fixed point, so the
-/// total is the same for any thread count); returns the contacts.
+/// Walls, per owned particle in candidate order (the particles with wall
+/// candidates in parallel; each thread sums its part of every wall's load
+/// exactly, in fixed point, so the total is the same for any thread count);
+/// returns the contacts.
 fn wall_forces<L: ContactLaw>(
     law: L,
     s: &SweepSettings,
@@ -216,33 +224,28 @@ fn wall_forces<L: ContactLaw>(
     table: &PairTable,
     shapes: &Shapes,
 ) -> usize {
-    let n_own = p.owned();
     let (_, consts) = nl.law_constants.get::<L>();
-    // each owned particle's slice of the wall history
-    let mut hist: Vec<&mut [Vec3]> = Vec::with_capacity(n_own);
+    let (wall_start, wall_feat, wall_inertia, owners) = (&nl.wall_start, &nl.wall_feat, &nl.wall_inertia, &nl.wall_owners);
+    // each such particle's slice of the wall history (the others' are empty)
+    let mut hist: Vec<&mut [Vec3]> = Vec::with_capacity(owners.len());
     let mut rest: &mut [Vec3] = &mut nl.wall_hist;
-    for i in 0..n_own.min(nl.wall_start.len().saturating_sub(1)) {
-        let len = (nl.wall_start[i + 1] - nl.wall_start[i]) as usize;
+    for &i in owners {
+        let len = (wall_start[i as usize + 1] - wall_start[i as usize]) as usize;
         let (h, r) = std::mem::take(&mut rest).split_at_mut(len);
         hist.push(h);
         rest = r;
     }
-    let mut force = std::mem::take(&mut p.force);
-    let mut torque = std::mem::take(&mut p.torque);
     let pr: &Particles = p;
     let ws: &[Wall] = walls;
-    let (wall_start, wall_feat, wall_inertia) = (&nl.wall_start, &nl.wall_feat, &nl.wall_inertia);
-    let zero_loads = || (vec![[0i128; 6]; ws.len()], 0usize, Vec::<Option<WallHit>>::with_capacity(16));
-    let (loads, contacts, _) = hist
+    type Part = (Vec<[i128; 6]>, usize, Vec<(u32, Vec3, Vec3)>, Vec<Option<WallHit>>);
+    let empty = || -> Part { (vec![[0i128; 6]; ws.len()], 0, Vec::new(), Vec::with_capacity(16)) };
+    let (loads, contacts, updates, _) = hist
         .into_par_iter()
-        .zip(force[..n_own].par_iter_mut().zip(torque[..n_own].par_iter_mut()))
-        .enumerate()
-        .with_min_len(MIN_LEN)
-        .fold(zero_loads, |(mut loads, mut contacts, mut hits), (i, (hist, (f, t)))| {
+        .zip(owners.par_iter())
+        .with_min_len(MIN_LEN / 4)
+        .fold(empty, |(mut loads, mut contacts, mut updates, mut hits), (hist, &i)| {
+            let i = i as usize;
             let (lo, hi) = (wall_start[i] as usize, wall_start[i + 1] as usize);
-            if lo == hi {
-                return (loads, contacts, hits);
-            }
             // all of this particle's wall contacts first, so that coincident ones can
             // be merged and history can follow a contact from one triangle to the next
             hits.clear();
@@ -251,6 +254,7 @@ fn wall_forces<L: ContactLaw>(
             }
             merge_coincident(&wall_feat[lo..hi], &mut hits, pr.radius[i]);
             carry_history(&wall_feat[lo..hi], &hits, hist);
+            let (mut f, mut t) = (pr.force[i], pr.torque[i]);
             for (k, hit) in hits.iter().enumerate() {
                 let h = &mut hist[k];
                 let Some(hit) = hit else {
@@ -264,24 +268,27 @@ fn wall_forces<L: ContactLaw>(
                 let pm = table.get(pr.material[i], wall.material);
                 let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity, w_j: Vec3::zeros() };
                 let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, s.dt);
-                *f += c.force;
-                *t += c.torque_i;
+                f += c.force;
+                t += c.torque_i;
                 // the force acts on the wall at the same point as on the particle
                 add_load(&mut loads[wi], g.point(pr.pos[i]), &c);
             }
-            (loads, contacts, hits)
+            updates.push((i as u32, f, t));
+            (loads, contacts, updates, hits)
         })
-        .map(|(loads, contacts, _)| (loads, contacts, Vec::new()))
-        .reduce(zero_loads, |(mut a, ca, _), (b, cb, _)| {
+        .reduce(empty, |(mut a, ca, mut ua, h), (b, cb, ub, _)| {
             for (x, y) in a.iter_mut().zip(&b) {
                 for k in 0..6 {
                     x[k] += y[k];
                 }
             }
-            (a, ca + cb, Vec::new())
+            ua.extend(ub);
+            (a, ca + cb, ua, h)
         });
-    p.force = std::mem::take(&mut force);
-    p.torque = std::mem::take(&mut torque);
+    for (i, f, t) in updates {
+        p.force[i as usize] = f;
+        p.torque[i as usize] = t;
+    }
     for (w, l) in walls.iter_mut().zip(loads) {
         w.load = l;
         w.force = Vec3::new(from_fixed(l[0]), from_fixed(l[1]), from_fixed(l[2]));

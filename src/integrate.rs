@@ -9,7 +9,6 @@
 //!   angular velocity (first-order equation, 95/288, 1, 25/24, 35/72, 5/48, 1/120).
 
 use crate::dim::{Dimension, Vec3};
-use crate::forces::MIN_LEN;
 use crate::particles::Particles;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -22,23 +21,26 @@ pub enum IntegratorKind {
     Gear,
 }
 
-/// Velocity Verlet: first half (kick and drift), particles in parallel on
-/// the current thread pool (each particle's update is its own).
+/// Particles a thread integrates at once.
+const CHUNK: usize = 4096;
+
+/// Velocity Verlet: first half (kick and drift), blocks of particles in
+/// parallel on the current thread pool (each particle's update is its own).
 pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
     let h = 0.5 * dt;
     let n = p.owned();
     let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
-    p.vel[..n]
-        .par_iter_mut()
-        .zip(p.omega[..n].par_iter_mut())
-        .zip(p.pos[..n].par_iter_mut())
-        .enumerate()
-        .with_min_len(MIN_LEN)
-        .for_each(|(i, ((v, w), x))| {
-            *v = dim.project_linear(*v + force[i] * (h * inv_mass[i]));
-            *w = dim.project_angular(*w + torque[i] * (h * inv_inertia[i]));
-            *x += *v * dt;
-        });
+    p.vel[..n].par_chunks_mut(CHUNK).zip(p.omega[..n].par_chunks_mut(CHUNK)).zip(p.pos[..n].par_chunks_mut(CHUNK)).enumerate().for_each(
+        |(c, ((vel, omega), pos))| {
+            let base = c * CHUNK;
+            for j in 0..vel.len() {
+                let i = base + j;
+                vel[j] = dim.project_linear(vel[j] + force[i] * (h * inv_mass[i]));
+                omega[j] = dim.project_angular(omega[j] + torque[i] * (h * inv_inertia[i]));
+                pos[j] += vel[j] * dt;
+            }
+        },
+    );
     if dim == Dimension::Two {
         // orientation (ellipses); spin is about z only
         for i in 0..p.owned() {
@@ -47,14 +49,18 @@ pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
     }
 }
 
-/// Velocity Verlet: second half kick, after the forces (particles in parallel).
+/// Velocity Verlet: second half kick, after the forces (blocks of particles in parallel).
 pub fn verlet_second(p: &mut Particles, dt: f64, dim: Dimension) {
     let h = 0.5 * dt;
     let n = p.owned();
     let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
-    p.vel[..n].par_iter_mut().zip(p.omega[..n].par_iter_mut()).enumerate().with_min_len(MIN_LEN).for_each(|(i, (v, w))| {
-        *v = dim.project_linear(*v + force[i] * (h * inv_mass[i]));
-        *w = dim.project_angular(*w + torque[i] * (h * inv_inertia[i]));
+    p.vel[..n].par_chunks_mut(CHUNK).zip(p.omega[..n].par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (vel, omega))| {
+        let base = c * CHUNK;
+        for j in 0..vel.len() {
+            let i = base + j;
+            vel[j] = dim.project_linear(vel[j] + force[i] * (h * inv_mass[i]));
+            omega[j] = dim.project_angular(omega[j] + torque[i] * (h * inv_inertia[i]));
+        }
     });
 }
 

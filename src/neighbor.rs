@@ -9,7 +9,7 @@
 //! foundation of results that do not depend on how particles are stored or
 //! split among ranks.
 
-use crate::contact::{ContactForce, ContactLaw, PairInertia};
+use crate::contact::{ContactLaw, PairInertia};
 use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Particles;
@@ -96,9 +96,17 @@ pub struct NeighborList {
     pub incident_start: Vec<u32>,
     #[serde(skip)]
     pub incident: Vec<u32>,
-    /// Each pair's force and torques from the last sweep (None: not touching).
+    /// Whether each pair touched at the last sweep (one byte a pair: a list
+    /// holds many more pairs than contacts while particles fall).
     #[serde(skip)]
-    pub pair_out: Vec<Option<ContactForce>>,
+    pub pair_touch: Vec<bool>,
+    /// The owned particles that have wall candidates, in storage order.
+    #[serde(skip)]
+    pub wall_owners: Vec<u32>,
+    /// Each touching pair's force and torques from the last sweep (written
+    /// for touching pairs only).
+    #[serde(skip)]
+    pub pair_out: Vec<PairOut>,
     /// Positions at the last build.
     pub x_ref: Vec<Vec3>,
     /// Largest distance any wall has moved since the last build (m).
@@ -285,9 +293,11 @@ impl NeighborList {
         self.wall_feat.clear();
         self.wall_hist.clear();
         self.wall_inertia.clear();
+        self.wall_owners.clear();
         let mut feats = Vec::new();
         for i in 0..p.owned() {
             self.wall_start.push(self.wall_feat.len() as u32);
+            let before = self.wall_feat.len();
             for (w, wall) in walls.iter().enumerate() {
                 if !wall.active {
                     continue;
@@ -308,6 +318,9 @@ impl NeighborList {
                     let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or_else(|_| Vec3::zeros());
                     self.wall_hist.push(h);
                 }
+            }
+            if self.wall_feat.len() > before {
+                self.wall_owners.push(i as u32);
             }
         }
         self.wall_start.push(self.wall_feat.len() as u32);
@@ -373,6 +386,15 @@ impl CellGrid {
         }
         CellGrid { dims, start, cells, sorted }
     }
+}
+
+/// What a touching pair adds to its two particles: the force on a (b gets
+/// minus it) and the torques on a and on b.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PairOut {
+    pub force: Vec3,
+    pub torque_a: Vec3,
+    pub torque_b: Vec3,
 }
 
 /// A law's constants ([`ContactLaw::Pair`]) for every pair and wall candidate
