@@ -17,6 +17,7 @@ use crate::neighbor::{NeighborList, PairOut};
 use crate::particles::Particles;
 use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Fewest pairs or particles a thread takes at once. A sweep over at most
 /// 2 MIN_LEN of each is never split, so it runs on the calling thread.
@@ -164,6 +165,9 @@ fn pair_forces<L: ContactLaw>(
     // the flags are written for every pair; the forces for touching pairs only
     nl.pair_touch.resize(nl.pairs.len(), false);
     nl.pair_out.resize(nl.pairs.len(), PairOut::default());
+    // which particles touch anything (set by any thread, read after: the value
+    // does not depend on the order), so the gather skips the free ones
+    let touched: Vec<AtomicBool> = (0..p.len()).map(|_| AtomicBool::new(false)).collect();
     let pr: &Particles = p;
     let counts = nl
         .pairs
@@ -186,12 +190,17 @@ fn pair_forces<L: ContactLaw>(
             let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, s.dt);
             *touch = true;
             *out = PairOut { force: c.force, torque_a: c.torque_i, torque_b: c.torque_j };
+            touched[a].store(true, Ordering::Relaxed);
+            touched[b].store(true, Ordering::Relaxed);
             (1, (a < n_own) as usize)
         })
         .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
     let (start, incident, touch, out) = (&nl.incident_start, &nl.incident, &nl.pair_touch, &nl.pair_out);
     p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(MIN_LEN).for_each(
         |(i, (f, t))| {
+            if !touched[i].load(Ordering::Relaxed) {
+                return;
+            }
             for &e in &incident[start[i] as usize..start[i + 1] as usize] {
                 let k = (e / 2) as usize;
                 if !touch[k] {

@@ -96,6 +96,9 @@ pub struct NeighborList {
     pub incident_start: Vec<u32>,
     #[serde(skip)]
     pub incident: Vec<u32>,
+    /// Work space of `build_incident`.
+    #[serde(skip)]
+    pub incident_keyed: Vec<(u64, u32)>,
     /// Whether each pair touched at the last sweep (one byte a pair: a list
     /// holds many more pairs than contacts while particles fall).
     #[serde(skip)]
@@ -263,27 +266,26 @@ impl NeighborList {
             start[i + 1] += start[i];
         }
         let mut fill = start.clone();
-        self.incident.clear();
-        self.incident.resize(start[n_own] as usize, 0);
+        // (partner id, entry), so that sorting needs no lookups
+        let keyed = &mut self.incident_keyed;
+        keyed.clear();
+        keyed.resize(start[n_own] as usize, (0, 0));
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
-            for (side, i) in [(0u32, a), (1, b)] {
+            for (side, i, other) in [(0u32, a, b), (1, b, a)] {
                 if (i as usize) < n_own {
-                    self.incident[fill[i as usize] as usize] = 2 * k as u32 + side;
+                    keyed[fill[i as usize] as usize] = (p.id[other as usize], 2 * k as u32 + side);
                     fill[i as usize] += 1;
                 }
             }
         }
-        let pairs = &self.pairs;
-        let partner = |e: u32| {
-            let (a, b) = pairs[(e / 2) as usize];
-            p.id[if e % 2 == 0 { b } else { a } as usize]
-        };
         for i in 0..n_own {
-            let seg = &mut self.incident[start[i] as usize..start[i + 1] as usize];
-            if !seg.windows(2).all(|w| partner(w[0]) < partner(w[1])) {
-                seg.sort_unstable_by_key(|&e| partner(e));
+            let seg = &mut keyed[start[i] as usize..start[i + 1] as usize];
+            if !seg.windows(2).all(|w| w[0].0 < w[1].0) {
+                seg.sort_unstable();
             }
         }
+        self.incident.clear();
+        self.incident.extend(keyed.iter().map(|x| x.1));
     }
 
     /// Every owned particle's wall candidates `(wall, feature)` within reach,
