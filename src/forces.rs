@@ -33,6 +33,10 @@ pub struct SweepSettings {
     pub opts: ContactOptions,
     pub gravity: Vec3,
     pub dt: f64,
+    /// Fewest pairs or particles a thread takes at once: `MIN_LEN` on several
+    /// threads, `usize::MAX` on one (nothing is split: the sweep runs on the
+    /// calling thread and never touches a pool).
+    pub grain: usize,
 }
 
 /// Touching contacts found by a sweep.
@@ -175,7 +179,7 @@ fn pair_forces<L: ContactLaw>(
         .zip(nl.pair_hist.par_iter_mut())
         .zip(nl.pair_touch.par_iter_mut().zip(nl.pair_out.par_iter_mut()))
         .zip(consts.par_iter().zip(nl.pair_inertia.par_iter()))
-        .with_min_len(MIN_LEN)
+        .with_min_len(s.grain)
         .map(|(((&(a, b), hist), (touch, out)), (pair, &pi))| {
             let (a, b) = (a as usize, b as usize);
             let Some(g) = shapes.pair(pr, a, b) else {
@@ -196,7 +200,7 @@ fn pair_forces<L: ContactLaw>(
         })
         .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
     let (start, incident, touch, out) = (&nl.incident_start, &nl.incident, &nl.pair_touch, &nl.pair_out);
-    p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(MIN_LEN).for_each(
+    p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(s.grain).for_each(
         |(i, (f, t))| {
             if !touched[i].load(Ordering::Relaxed) {
                 return;
@@ -251,7 +255,7 @@ fn wall_forces<L: ContactLaw>(
     let (loads, contacts, updates, _) = hist
         .into_par_iter()
         .zip(owners.par_iter())
-        .with_min_len(MIN_LEN / 4)
+        .with_min_len((s.grain / 4).max(1))
         .fold(empty, |(mut loads, mut contacts, mut updates, mut hits), (hist, &i)| {
             let i = i as usize;
             let (lo, hi) = (wall_start[i] as usize, wall_start[i + 1] as usize);

@@ -25,12 +25,13 @@ pub enum IntegratorKind {
 const CHUNK: usize = 4096;
 
 /// Velocity Verlet: first half (kick and drift), blocks of particles in
-/// parallel on the current thread pool (each particle's update is its own).
-pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
+/// parallel on the current thread pool (each particle's update is its own;
+/// `grain`: fewest blocks a thread takes, `usize::MAX` for no split).
+pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension, grain: usize) {
     let h = 0.5 * dt;
     let n = p.owned();
     let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
-    p.vel[..n].par_chunks_mut(CHUNK).zip(p.omega[..n].par_chunks_mut(CHUNK)).zip(p.pos[..n].par_chunks_mut(CHUNK)).enumerate().for_each(
+    p.vel[..n].par_chunks_mut(CHUNK).zip(p.omega[..n].par_chunks_mut(CHUNK)).zip(p.pos[..n].par_chunks_mut(CHUNK)).enumerate().with_min_len(grain).for_each(
         |(c, ((vel, omega), pos))| {
             let base = c * CHUNK;
             for j in 0..vel.len() {
@@ -50,11 +51,11 @@ pub fn verlet_first(p: &mut Particles, dt: f64, dim: Dimension) {
 }
 
 /// Velocity Verlet: second half kick, after the forces (blocks of particles in parallel).
-pub fn verlet_second(p: &mut Particles, dt: f64, dim: Dimension) {
+pub fn verlet_second(p: &mut Particles, dt: f64, dim: Dimension, grain: usize) {
     let h = 0.5 * dt;
     let n = p.owned();
     let (force, torque, inv_mass, inv_inertia) = (&p.force, &p.torque, &p.inv_mass, &p.inv_inertia);
-    p.vel[..n].par_chunks_mut(CHUNK).zip(p.omega[..n].par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (vel, omega))| {
+    p.vel[..n].par_chunks_mut(CHUNK).zip(p.omega[..n].par_chunks_mut(CHUNK)).enumerate().with_min_len(grain).for_each(|(c, (vel, omega))| {
         let base = c * CHUNK;
         for j in 0..vel.len() {
             let i = base + j;

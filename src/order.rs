@@ -86,17 +86,17 @@ pub fn hilbert_key<const D: usize>(mut x: [u32; D], bits: u32) -> u64 {
     key
 }
 
+/// The corners of the box around `pos` (infinite, inside out, when empty).
+fn bounds(pos: &[Vec3]) -> (Vec3, Vec3) {
+    pos.iter().fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(lo, hi), x| (lo.inf(x), hi.sup(x)))
+}
+
 /// The owned particles' storage order along a Hilbert curve through their
 /// bounding box: entry k is the particle to store at k. A flat set (every z
 /// the same: 2D) is ordered along the 2D curve. Ties (equal keys) keep id order.
 pub fn hilbert_order(p: &Particles) -> Vec<usize> {
     let n = p.owned();
-    let mut lo = Vec3::repeat(f64::INFINITY);
-    let mut hi = Vec3::repeat(f64::NEG_INFINITY);
-    for x in &p.pos[..n] {
-        lo = lo.inf(x);
-        hi = hi.sup(x);
-    }
+    let (lo, hi) = bounds(&p.pos[..n]);
     let flat = !(hi.z > lo.z);
     let bits = if flat { BITS_2D } else { BITS_3D };
     let cells = (1u64 << bits) as f64;
@@ -127,12 +127,7 @@ pub fn hilbert_order(p: &Particles) -> Vec<usize> {
 /// `cell` over their bounding box, x fastest; ties keep id order.
 pub fn cell_order(p: &Particles, cell: f64) -> Vec<usize> {
     let n = p.owned();
-    let mut lo = Vec3::repeat(f64::INFINITY);
-    let mut hi = Vec3::repeat(f64::NEG_INFINITY);
-    for x in &p.pos[..n] {
-        lo = lo.inf(x);
-        hi = hi.sup(x);
-    }
+    let (lo, hi) = bounds(&p.pos[..n]);
     let dims = [0, 1, 2].map(|k| (((hi[k] - lo[k]) / cell).floor() as u64).clamp(0, 1 << 20) + 1);
     let mut keyed: Vec<(u64, u64, usize)> = (0..n)
         .map(|i| {

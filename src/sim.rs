@@ -111,7 +111,7 @@ impl Simulation {
         let set = Settings {
             dt,
             dim: s.dimension,
-            sweep: SweepSettings { contact: case.contact, opts, gravity: Vec3::from(s.gravity), dt },
+            sweep: SweepSettings { contact: case.contact, opts, gravity: Vec3::from(s.gravity), dt, grain: usize::MAX },
             integrator: s.integrator,
             domain,
             rayleigh_time: tr,
@@ -152,6 +152,10 @@ impl Simulation {
             clumps,
         };
         let pool = thread_pool(&case, &par)?;
+        let mut set = set;
+        if pool.current_num_threads() > 1 {
+            set.sweep.grain = crate::forces::MIN_LEN;
+        }
         Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool })
     }
 
@@ -325,7 +329,7 @@ impl Simulation {
     /// Run `f` on the particles: on the rank's threads, or on this thread for
     /// a small system (handing it to the pool would cost more than the work).
     fn on_threads(&mut self, f: impl FnOnce(&mut Particles) + Send) {
-        if self.state.p.len() <= 2 * crate::forces::MIN_LEN {
+        if self.state.p.len() <= 2 * crate::forces::MIN_LEN || self.set.sweep.grain == usize::MAX {
             f(&mut self.state.p)
         } else {
             let p = &mut self.state.p;
@@ -333,11 +337,17 @@ impl Simulation {
         }
     }
 
+    /// Fewest blocks of particles a thread integrates at once (1 on several
+    /// threads; on one, nothing is split and the pool is never used).
+    fn integrate_grain(&self) -> usize {
+        if self.set.sweep.grain == usize::MAX { usize::MAX } else { 1 }
+    }
+
     fn forces(&mut self) {
         let (st, set, table) = (&mut self.state, &self.set, &self.table);
         // a small system runs on this thread (handing it to the pool would cost
         // more than the sweep); a larger one on the rank's threads
-        let small = st.p.len().max(st.nl.pairs.len()) <= 2 * crate::forces::MIN_LEN;
+        let small = st.p.len().max(st.nl.pairs.len()) <= 2 * crate::forces::MIN_LEN || set.sweep.grain == usize::MAX;
         let c = if small {
             compute_forces(&set.sweep, &mut st.p, &mut st.walls, &mut st.nl, table)
         } else {
@@ -429,7 +439,8 @@ impl Simulation {
         let dim = self.set.dim;
         match self.set.integrator {
             IntegratorKind::Verlet => {
-                self.on_threads(|p| integrate::verlet_first(p, dt, dim));
+                let grain = self.integrate_grain();
+                self.on_threads(|p| integrate::verlet_first(p, dt, dim, grain));
                 if !self.state.clumps.is_empty() {
                     self.state.clumps.first_half(&mut self.state.p, dt);
                 }
@@ -448,7 +459,8 @@ impl Simulation {
         self.forces();
         match self.set.integrator {
             IntegratorKind::Verlet => {
-                self.on_threads(|p| integrate::verlet_second(p, dt, dim));
+                let grain = self.integrate_grain();
+                self.on_threads(|p| integrate::verlet_second(p, dt, dim, grain));
                 if !self.state.clumps.is_empty() {
                     self.state.clumps.second_half(&mut self.state.p, dt);
                 }
