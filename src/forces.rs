@@ -1,5 +1,6 @@
-//! The force sweep: gravity, then particle pairs in list order, then walls in
-//! wall and feature order. The law is chosen once per sweep
+//! The force sweep: gravity, then every particle's pair forces in order of its
+//! partners' ids (the pairs are computed in any order), then walls in wall
+//! and feature order. The law is chosen once per sweep
 //! (`contact::dispatch`) and the kernel is monomorphised for it.
 //!
 //! Per contact, whatever the shapes: the geometry stage gives a

@@ -5,7 +5,9 @@
 //! 2. walls move by their prescribed velocities;
 //! 3. neighbour lists are checked (domain, NaN) and rebuilt if any particle moved
 //!    more than half the skin;
-//! 4. forces: gravity, pairs in (id_a, id_b) order, walls in order;
+//! 4. forces: gravity, then each particle's pair forces in order of its
+//!    partners' ids (pairs computed in any order, on the rank's threads), then
+//!    its walls in order;
 //! 5. integrator second half (Verlet: half kick; Gear: correct);
 //! 6. time advances. The driver then calls its observers (analysis, probes, ...,
 //!    `crate::observe`) and checks the phase end conditions (`advance_phase`).

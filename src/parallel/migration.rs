@@ -1,7 +1,8 @@
 //! Migration: particles whose owner changed (they left the box, or the planes
 //! moved) go to their new owner with their Gear derivatives and every contact
 //! history entry that involves them; then the owned particles are put in the
-//! storage order asked for (`crate::order`: a Hilbert curve, or ids). The
+//! storage order asked for (`crate::order`: by grid cell, along a Hilbert
+//! curve, by id, or shuffled). The
 //! history is routed by one [`Router`] whether it comes from the current list
 //! (at a rebuild: local indices, no lookups) or keyed by ids (set-up, restart).
 
@@ -119,7 +120,7 @@ impl Parallel {
             }
         }
         let mut hist = route.keep;
-        // the list is in id order already; sorting is then a linear check
+        // the list is in storage order: sort the kept history by key
         hist.pairs.sort_unstable_by_key(|x| x.0);
         hist.walls.sort_unstable_by_key(|x| x.0);
         p.drop_ghosts();

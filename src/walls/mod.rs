@@ -250,15 +250,6 @@ impl Wall {
         }
     }
 
-    /// Add a contact's reaction to this rank's load, in fixed point (exact
-    /// sums): the force -F at the contact point (torque point x -F about the
-    /// origin) and the law's torque on the wall, `torque_j`, which is referred
-    /// to the contact point (a couple; zero unless the law has one).
-    #[inline(always)]
-    pub fn add_load(&mut self, point: Vec3, c: &ContactForce) {
-        add_load(&mut self.load, point, c);
-    }
-
     /// Radius of curvature of the wall's surface (None: flat).
     #[inline(always)]
     pub fn curvature_radius(&self) -> Option<f64> {
@@ -270,8 +261,10 @@ impl Wall {
 }
 
 /// Add a contact's reaction to a wall load `[Fx, Fy, Fz, Tx, Ty, Tz]` (exact
-/// fixed point, see `crate::fixed`): -F at `point`, and the law's torque on
-/// the wall (zero unless the law has one).
+/// fixed point, see `crate::fixed`): the force -F at the contact point
+/// (torque point x -F about the origin) and the law's torque on the wall,
+/// `torque_j`, referred to the contact point (a couple; zero unless the law
+/// has one).
 #[inline(always)]
 pub fn add_load(load: &mut [i128; 6], point: Vec3, c: &ContactForce) {
     let t = point.cross(&c.force);
