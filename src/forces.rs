@@ -79,15 +79,21 @@ pub fn compute_forces(
 }
 
 /// The law's constants of every pair and wall candidate of the list
-/// (`ContactLaw::pair`), once per list build.
-fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut NeighborList, table: &PairTable) {
+/// (`ContactLaw::pair`), once per list build (the pairs' on the pool's
+/// threads unless `grain` says one thread).
+fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut NeighborList, table: &PairTable, grain: usize) {
     if nl.law_constants.holds(law, nl.builds) {
         return;
     }
-    let pairs = constants(nl.pairs.len(), |k| {
+    let pair = |k: usize| {
         let (a, b) = nl.pairs[k];
         law.pair(table.get(p.material[a as usize], p.material[b as usize]), nl.pair_inertia[k])
-    });
+    };
+    let pairs = if std::mem::size_of::<L::Pair>() == 0 || grain == usize::MAX {
+        constants(nl.pairs.len(), pair)
+    } else {
+        (0..nl.pairs.len()).into_par_iter().with_min_len(grain).map(pair).collect()
+    };
     let mut i = 0; // the particle whose candidates hold k
     let consts = constants(nl.wall_feat.len(), |k| {
         while nl.wall_start[i + 1] as usize <= k {
@@ -145,7 +151,7 @@ fn sweep<L: ContactLaw>(
         p.force[i] = s.gravity * p.mass[i];
         p.torque[i] = Vec3::zeros();
     }
-    law_constants(law, p, walls, nl, table);
+    law_constants(law, p, walls, nl, table, s.grain);
     let shapes = Shapes::new(p);
     let (evaluated, owned) = pair_forces(law, s, p, nl, table, &shapes);
     let wall_contacts = wall_forces(law, s, p, walls, nl, table, &shapes);
@@ -200,25 +206,25 @@ fn pair_forces<L: ContactLaw>(
             (1, (a < n_own) as usize)
         })
         .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
-    let (start, incident, touch, out) = (&nl.incident_start, &nl.incident, &nl.pair_touch, &nl.pair_out);
+    let (start, incident, rows, touch, out) = (&nl.incident_start, &nl.incident, &nl.row_start, &nl.pair_touch, &nl.pair_out);
     p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(s.grain).for_each(
         |(i, (f, t))| {
             if !touched[i].load(Ordering::Relaxed) {
                 return;
             }
-            for &e in &incident[start[i] as usize..start[i + 1] as usize] {
-                let k = (e / 2) as usize;
-                if !touch[k] {
-                    continue;
+            // partners of lower id (i is the pair's b), in order of id ...
+            for &k in &incident[start[i] as usize..start[i + 1] as usize] {
+                let k = k as usize;
+                if touch[k] {
+                    *f -= out[k].force;
+                    *t += out[k].torque_b;
                 }
-                let c = &out[k];
-                if e % 2 == 0 {
-                    *f += c.force;
-                    *t += c.torque_a;
-                } else {
-                    *f -= c.force;
-                    *t += c.torque_b;
-                }
+            }
+            // ... then those of higher id: i's row, already in order of id
+            let row = rows[i] as usize..rows[i + 1] as usize;
+            for (c, _) in out[row.clone()].iter().zip(&touch[row]).filter(|x| *x.1) {
+                *f += c.force;
+                *t += c.torque_a;
             }
         },
     );

@@ -57,11 +57,15 @@ enum Cmd {
     },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
-    /// Write a case's initial particles as CSV (id,x,y,z,radius,vx,vy,vz), for the other engines.
+    /// Write a case's initial particles as CSV (id,x,y,z,radius,vx,vy,vz), for the other engines;
+    /// with --restart, the particles of a checkpoint of that case (say, the end of a fill).
     Cloud {
         case: PathBuf,
         #[arg(long)]
         out: PathBuf,
+        /// A checkpoint written by a run of the same case: its particles, not the initial ones.
+        #[arg(long)]
+        restart: Option<PathBuf>,
     },
 }
 
@@ -174,9 +178,12 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Cmd::Cloud { case, out } => {
+        Cmd::Cloud { case, out, restart } => {
             let c = Case::load(&case)?;
-            let sim = talus::sim::Simulation::new(c)?;
+            let mut sim = talus::sim::Simulation::new(c)?;
+            if let Some(ck) = &restart {
+                talus::checkpoint::read(&mut sim, ck)?;
+            }
             let inits = sim.particles().to_inits();
             talus::generate::write_csv(&out, &inits).map_err(|e| TalusError::io(format!("writing {}", out.display()), e))?;
             println!("wrote {} particles to {}", inits.len(), out.display());

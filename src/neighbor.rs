@@ -14,6 +14,7 @@ use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Particles;
 use crate::walls::Wall;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Axis-aligned box that particles must stay inside.
@@ -87,11 +88,18 @@ pub struct NeighborList {
     /// The law's constants of every pair and wall candidate (rebuilt with the list).
     #[serde(skip)]
     pub law_constants: LawConstants,
-    /// Each owned particle's pairs in order of its partners' global ids:
-    /// particle i's are `incident[incident_start[i]..incident_start[i + 1]]`,
-    /// each `2k` (i is pair k's a) or `2k + 1` (i is its b). The force sweep
-    /// sums a particle's pair forces in this order, so the sum does not depend
-    /// on the order of the pairs or of the particles in storage.
+    /// Particle a's pairs (as the lower id, `a` of the pair) are
+    /// `pairs[row_start[a]..row_start[a + 1]]`, in order of the partners' ids
+    /// (every particle, ghosts included).
+    #[serde(skip)]
+    pub row_start: Vec<u32>,
+    /// The pairs in which an owned particle is the higher id (`b`), each
+    /// particle's in order of its partners' ids: particle i's are
+    /// `incident[incident_start[i]..incident_start[i + 1]]` (pair indices).
+    /// A particle's partners in these come before those of its row (lower ids
+    /// first), so the force sweep sums its pair forces, this list then its
+    /// row, in order of its partners' global ids: the sum does not depend on
+    /// the order of the pairs or of the particles in storage.
     #[serde(skip)]
     pub incident_start: Vec<u32>,
     #[serde(skip)]
@@ -110,6 +118,10 @@ pub struct NeighborList {
     /// for touching pairs only).
     #[serde(skip)]
     pub pair_out: Vec<PairOut>,
+    /// Whether the list is built on the rank's threads (the caller runs the
+    /// build inside the rank's pool); results do not depend on it.
+    #[serde(skip)]
+    pub threaded: bool,
     /// Positions at the last build.
     pub x_ref: Vec<Vec3>,
     /// Largest distance any wall has moved since the last build (m).
@@ -191,98 +203,100 @@ impl NeighborList {
     }
 
     /// The pairs within reach (`id_a < id_b`, sorted), each with its history
-    /// from `old_pair` (sorted by ids) and its R*, m*.
+    /// from `old_pair` (sorted by ids) and its R*, m*. On several threads,
+    /// blocks of particles find their rows at once and the blocks are joined
+    /// in order: the same list as on one.
     fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Vec3)]) {
         let n = p.len();
-        let n_own = p.owned();
-        self.pairs.clear();
-        self.pair_hist.clear();
-        self.pair_inertia.clear();
-        let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
-        let [nx, ny, nz] = grid.dims;
-        // in storage order: a pair's place in the list changes no result
-        for a in 0..n {
-            let xa = p.pos[a];
-            let ra = p.radius[a];
-            let ida = p.id[a];
-            // a ghost pairs only with owned particles
-            let ghost_a = a >= n_own;
-            let clump_a = p.clump[a];
-            let c = grid.cells[a];
-            let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
-            row.clear();
-            let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(nx - 1));
-            for z in cz.saturating_sub(1)..=(cz + 1).min(nz - 1) {
-                for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
-                    // the three cells along x are contiguous in the sorted arrays
-                    let base = (z * ny + y) * nx;
-                    let (lo, hi) = (grid.start[base + x0] as usize, grid.start[base + x1 + 1] as usize);
-                    for &(idb, b, q) in &grid.sorted[lo..hi] {
-                        let (dx, dy, dz) = (q[0] - xa.x, q[1] - xa.y, q[2] - xa.z);
-                        let cut = ra + q[3];
-                        // one rarely-taken branch (`&`, not `&&`): the id test alone
-                        // would be a coin flip for the branch predictor
-                        if (idb > ida) & (dx * dx + dy * dy + dz * dz < cut * cut) & !(ghost_a & (b as usize >= n_own)) {
-                            // members of one clump never touch each other
-                            if clump_a == 0 || p.clump[b as usize] != clump_a {
-                                row.push((idb, b));
-                            }
-                        }
-                    }
-                }
-            }
-            row.sort_unstable();
-            // a's old pairs are one run of the sorted history, in the row's order
-            let mut cursor = if row.is_empty() { 0 } else { old_pair.partition_point(|x| x.0 .0 < ida) };
-            for &(idb, b) in &row {
-                let key = (ida, idb);
-                while cursor < old_pair.len() && old_pair[cursor].0 < key {
-                    cursor += 1;
-                }
-                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
-                self.pairs.push((a as u32, b));
-                self.pair_hist.push(h);
-                let bi = b as usize;
-                self.pair_inertia.push(PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
+        let mut rows = Rows {
+            pairs: std::mem::take(&mut self.pairs),
+            hist: std::mem::take(&mut self.pair_hist),
+            inertia: std::mem::take(&mut self.pair_inertia),
+            start: std::mem::take(&mut self.row_start),
+        };
+        rows.clear();
+        if !self.threaded || n <= 2 * ROW_BLOCK {
+            rows.find(p, grid, old_pair, 0..n);
+        } else {
+            let blocks: Vec<Rows> = (0..n.div_ceil(ROW_BLOCK))
+                .into_par_iter()
+                .map(|b| {
+                    let mut r = Rows::default();
+                    r.find(p, grid, old_pair, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n));
+                    r
+                })
+                .collect();
+            let total: usize = blocks.iter().map(|b| b.pairs.len()).sum();
+            rows.pairs.reserve(total);
+            rows.hist.reserve(total);
+            rows.inertia.reserve(total);
+            rows.start.reserve(n + 1);
+            for b in blocks {
+                let base = rows.pairs.len() as u32;
+                rows.start.extend(b.start.iter().map(|s| s + base));
+                rows.pairs.extend_from_slice(&b.pairs);
+                rows.hist.extend_from_slice(&b.hist);
+                rows.inertia.extend_from_slice(&b.inertia);
             }
         }
+        rows.start.push(rows.pairs.len() as u32);
+        self.pairs = rows.pairs;
+        self.pair_hist = rows.hist;
+        self.pair_inertia = rows.inertia;
+        self.row_start = rows.start;
     }
 
-    /// The owned particles' pairs, each particle's in order of partner id
-    /// (`incident`; a counting sort by particle, then a sort within each).
+    /// The pairs in which each owned particle is the higher id, each
+    /// particle's in order of partner id (`incident`; a counting sort by
+    /// particle, then a sort within each).
     fn build_incident(&mut self, p: &Particles) {
         let n_own = p.owned();
         let start = &mut self.incident_start;
         start.clear();
         start.resize(n_own + 1, 0);
-        for &(a, b) in &self.pairs {
-            for i in [a, b] {
-                if (i as usize) < n_own {
-                    start[i as usize + 1] += 1;
-                }
+        for &(_, b) in &self.pairs {
+            if (b as usize) < n_own {
+                start[b as usize + 1] += 1;
             }
         }
         for i in 0..n_own {
             start[i + 1] += start[i];
         }
         let mut fill = start.clone();
-        // (partner id, entry), so that sorting needs no lookups
+        // (partner id, pair), so that sorting needs no lookups
         let keyed = &mut self.incident_keyed;
         keyed.clear();
         keyed.resize(start[n_own] as usize, (0, 0));
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
-            for (side, i, other) in [(0u32, a, b), (1, b, a)] {
-                if (i as usize) < n_own {
-                    keyed[fill[i as usize] as usize] = (p.id[other as usize], 2 * k as u32 + side);
-                    fill[i as usize] += 1;
-                }
+            if (b as usize) < n_own {
+                keyed[fill[b as usize] as usize] = (p.id[a as usize], k as u32);
+                fill[b as usize] += 1;
             }
         }
-        for i in 0..n_own {
-            let seg = &mut keyed[start[i] as usize..start[i + 1] as usize];
-            if !seg.windows(2).all(|w| w[0].0 < w[1].0) {
-                seg.sort_unstable();
+        let sort_rows = |keyed: &mut [(u64, u32)], range: std::ops::Range<usize>, off: usize| {
+            for i in range {
+                let seg = &mut keyed[start[i] as usize - off..start[i + 1] as usize - off];
+                if !seg.windows(2).all(|w| w[0].0 < w[1].0) {
+                    seg.sort_unstable();
+                }
             }
+        };
+        if !self.threaded || n_own <= 2 * ROW_BLOCK {
+            sort_rows(keyed, 0..n_own, 0);
+        } else {
+            // blocks of particles, each with its own part of `keyed`
+            let mut parts = Vec::with_capacity(n_own.div_ceil(ROW_BLOCK));
+            let mut rest: &mut [(u64, u32)] = keyed;
+            for b0 in (0..n_own).step_by(ROW_BLOCK) {
+                let b1 = (b0 + ROW_BLOCK).min(n_own);
+                let (part, r) = std::mem::take(&mut rest).split_at_mut((start[b1] - start[b0]) as usize);
+                parts.push((b0..b1, part));
+                rest = r;
+            }
+            parts.into_par_iter().for_each(|(range, part)| {
+                let off = start[range.start] as usize;
+                sort_rows(part, range, off)
+            });
         }
         self.incident.clear();
         self.incident.extend(keyed.iter().map(|x| x.1));
@@ -326,6 +340,84 @@ impl NeighborList {
             }
         }
         self.wall_start.push(self.wall_feat.len() as u32);
+    }
+}
+
+/// Particles a thread takes at once when the pairs are found on several threads.
+const ROW_BLOCK: usize = 2048;
+
+/// The rows of a range of particles: their pairs, each with its history and
+/// R*, m*, and where each particle's row starts (without the closing entry).
+#[derive(Default)]
+struct Rows {
+    pairs: Vec<(u32, u32)>,
+    hist: Vec<Vec3>,
+    inertia: Vec<PairInertia>,
+    start: Vec<u32>,
+}
+
+impl Rows {
+    fn clear(&mut self) {
+        self.pairs.clear();
+        self.hist.clear();
+        self.inertia.clear();
+        self.start.clear();
+    }
+
+    /// Append the rows of particles `range`: each particle's partners of
+    /// higher id within reach, in order of id.
+    fn find(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Vec3)], range: std::ops::Range<usize>) {
+        let n_own = p.owned();
+        let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
+        let [nx, ny, nz] = grid.dims;
+        let base_k = self.pairs.len() as u32;
+        // in storage order: a pair's place in the list changes no result
+        for a in range {
+            self.start.push(self.pairs.len() as u32 - base_k);
+            let xa = p.pos[a];
+            let ra = p.radius[a];
+            let ida = p.id[a];
+            // a ghost pairs only with owned particles
+            let ghost_a = a >= n_own;
+            let clump_a = p.clump[a];
+            let c = grid.cells[a];
+            let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
+            row.clear();
+            let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(nx - 1));
+            for z in cz.saturating_sub(1)..=(cz + 1).min(nz - 1) {
+                for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
+                    // the three cells along x are contiguous in the sorted arrays
+                    let base = (z * ny + y) * nx;
+                    let (lo, hi) = (grid.start[base + x0] as usize, grid.start[base + x1 + 1] as usize);
+                    for &(idb, b, q) in &grid.sorted[lo..hi] {
+                        let (dx, dy, dz) = (q[0] - xa.x, q[1] - xa.y, q[2] - xa.z);
+                        let cut = ra + q[3];
+                        // one rarely-taken branch (`&`, not `&&`): the id test alone
+                        // would be a coin flip for the branch predictor
+                        if (idb > ida) & (dx * dx + dy * dy + dz * dz < cut * cut) & !(ghost_a & (b as usize >= n_own)) {
+                            // members of one clump never touch each other
+                            if clump_a == 0 || p.clump[b as usize] != clump_a {
+                                row.push((idb, b));
+                            }
+                        }
+                    }
+                }
+            }
+            row.sort_unstable();
+            // a's old pairs are one run of the sorted history, in the row's order
+            let mut cursor = if row.is_empty() { 0 } else { old_pair.partition_point(|x| x.0 .0 < ida) };
+            for &(idb, b) in &row {
+                let key = (ida, idb);
+                while cursor < old_pair.len() && old_pair[cursor].0 < key {
+                    cursor += 1;
+                }
+                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
+                self.pairs.push((a as u32, b));
+                self.hist.push(h);
+                let bi = b as usize;
+                self.inertia.push(PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
+            }
+        }
     }
 }
 

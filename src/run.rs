@@ -162,6 +162,16 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
     summary.insert("timestep_s".into(), json!(sim.dt()));
     summary.insert("rayleigh_time_s".into(), json!(sim.rayleigh_time()));
     summary.insert("neighbor_builds".into(), json!(sim.state().nl.builds));
+    let tm = &sim.parallel().timers;
+    // this rank's (rank 0's) seconds in each stage of the step, this run
+    summary.insert(
+        "stage_seconds".into(),
+        json!({
+            "forces": tm.forces, "integrate": tm.integrate, "list_build": tm.list_build,
+            "migrate_and_ghosts": tm.migrate, "ghost_refresh": tm.ghost_refresh,
+            "check_and_agree": tm.check, "wall_sums": tm.wall_sums,
+        }),
+    );
     summary.insert("wall_clock_s".into(), json!(wall));
     summary.insert("particle_steps_per_s".into(), json!(if wall > 0.0 { n * steps as f64 / wall } else { 0.0 }));
     summary.insert("state_hash".into(), json!(sim.state_hash()));

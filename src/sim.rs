@@ -296,11 +296,13 @@ impl Simulation {
     /// (migrating particles and remaking ghosts); else refresh the ghosts.
     fn refresh_lists(&mut self) -> Result<(), TalusError> {
         let st = &mut self.state;
+        let t = Instant::now();
         let (need, err) = match st.nl.displacement(&st.p, &self.set.domain) {
             Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
             Err(e) => (true, Some(e.to_string())),
         };
         let (need, err) = self.par.agree(need || self.par.rebalance_pending, err);
+        self.par.timers.check += t.elapsed().as_secs_f64();
         if let Some(e) = err {
             return Err(TalusError::Run(e));
         }
@@ -316,7 +318,14 @@ impl Simulation {
             self.par.timers.migrate += migrated;
             self.par.timers.comm_s += migrated;
             let t2 = Instant::now();
-            st.nl.build_with(&st.p, &st.walls, &h);
+            // a large system's list is built on the rank's threads
+            st.nl.threaded = self.set.sweep.grain != usize::MAX && st.p.len() > 2 * crate::forces::MIN_LEN;
+            if st.nl.threaded {
+                let (nl, p, walls) = (&mut st.nl, &st.p, &st.walls);
+                self.pool.install(|| nl.build_with(p, walls, &h));
+            } else {
+                st.nl.build_with(&st.p, &st.walls, &h);
+            }
             self.par.timers.list_build += t2.elapsed().as_secs_f64();
             self.par.rebalance_pending = false;
         } else {
@@ -449,6 +458,7 @@ impl Simulation {
             }
             IntegratorKind::Gear => self.state.gear.predict(&mut self.state.p, dt),
         }
+        self.par.timers.integrate += t0.elapsed().as_secs_f64();
         let mut moved: f64 = 0.0;
         for w in &mut self.state.walls {
             w.advance(dt);
@@ -458,7 +468,10 @@ impl Simulation {
         }
         self.state.nl.wall_moved += moved;
         self.refresh_lists()?;
+        let t1 = Instant::now();
         self.forces();
+        let t2 = Instant::now();
+        self.par.timers.forces += (t2 - t1).as_secs_f64();
         match self.set.integrator {
             IntegratorKind::Verlet => {
                 let grain = self.integrate_grain();
@@ -469,6 +482,7 @@ impl Simulation {
             }
             IntegratorKind::Gear => self.state.gear.correct(&mut self.state.p, dt, dim),
         }
+        self.par.timers.integrate += t2.elapsed().as_secs_f64();
         let compute = (t0.elapsed().as_secs_f64() - (self.par.timers.comm_s - comm0)).max(0.0);
         self.par.timers.compute_s += compute;
         self.reduce_walls();

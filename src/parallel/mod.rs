@@ -47,6 +47,12 @@ pub struct Timers {
     pub agree: f64,
     /// The exact sum of wall loads over ranks.
     pub wall_sums: f64,
+    /// The force sweep (pairs, gather, walls).
+    pub forces: f64,
+    /// Both halves of the integrator.
+    pub integrate: f64,
+    /// The displacement check before each step (with the agreement of all ranks).
+    pub check: f64,
 }
 
 /// Counters of one rank over an output interval.
