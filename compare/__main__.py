@@ -1,6 +1,8 @@
 """python -m compare SETUP [--model hertz|hooke] [--engines talus,liggghts,yade] [--out DIR]
 
-SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper.
+SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper, or `throughput TARGET` with
+TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense settled
+bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
 Runs the engines, computes every figure from their raw time series by one piece of
 code, prints them side by side, writes report.md, figures.json and PNG plots into
 DIR, and exits 1 when a figure is outside its tolerance (tolerances.py).
@@ -11,6 +13,7 @@ import sys
 from pathlib import Path
 
 from . import engines, figures, setups, tolerances
+from .bed import BEDS, print_table as print_bed, throughput as bed_throughput
 from .report import write_sc_report
 
 SC_SETUPS = ["SC-wall", "SC-pair", "SC-oblique"]
@@ -96,22 +99,25 @@ def print_sc(results):
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m compare", description=__doc__.splitlines()[0])
     ap.add_argument("setup", choices=SC_SETUPS + H1_SETUPS + ["throughput"])
-    ap.add_argument("target", nargs="?", help="with `throughput`: H1-small or H1-paper")
+    ap.add_argument("target", nargs="?", choices=H1_SETUPS + list(BEDS),
+                    help="with `throughput`: H1-small, H1-paper, bed-20k or bed-100k")
     ap.add_argument("--model", choices=["hertz", "hooke"], default="hertz")
-    ap.add_argument("--engines", default="talus,liggghts,yade")
+    ap.add_argument("--engines", help="default: talus,liggghts,yade; for the beds talus,lammps,liggghts")
     ap.add_argument("--out", type=Path)
-    ap.add_argument("--steps", type=int, help="throughput: run only this many steps (of the fill) in every engine")
+    ap.add_argument("--steps", type=int, help="throughput: run only this many steps (H1: of the fill; beds: of the window) in every engine")
     a = ap.parse_args(argv)
-    engs = [e.strip() for e in a.engines.split(",") if e.strip()]
+    bed = a.setup == "throughput" and a.target in BEDS
+    known = ("talus", "lammps", "liggghts") if bed else ("talus", "liggghts", "yade")
+    engs = [e.strip() for e in (a.engines or ",".join(known)).split(",") if e.strip()]
     for e in engs:
-        if e not in ("talus", "liggghts", "yade"):
-            ap.error(f"--engines: unknown engine `{e}` (talus, liggghts, yade)")
+        if e not in known:
+            ap.error(f"--engines: unknown engine `{e}` here ({', '.join(known)})")
     try:
         engines.check_versions(engs)
     except engines.EngineError as err:
         print(f"compare: {err}", file=sys.stderr)
         return 2
-    out = a.out or Path("out") / "compare" / f"{a.setup}-{a.model}"
+    out = a.out or Path("out") / "compare" / (f"throughput-{a.target}" if bed else f"{a.setup}-{a.model}")
     out.mkdir(parents=True, exist_ok=True)
     if a.setup in SC_SETUPS:
         try:
@@ -131,6 +137,12 @@ def main(argv=None):
         return 0
     from . import h1
     try:
+        if bed:
+            r = bed_throughput(a.target, engs, out.resolve(), a.steps)
+            (out / "throughput.json").write_text(json.dumps(r, indent=1))
+            print_bed(r)
+            print(f"\nwritten: {out / 'throughput.json'}")
+            return 0
         if a.setup == "throughput":
             target = a.target or "H1-small"
             r = h1.throughput(target, engs, out, a.steps)

@@ -7,7 +7,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 TALUS = ROOT / "target" / "release" / "talus"
-REQUIRED = {"liggghts": "3.8.0", "yade": "2023.02a"}
+REQUIRED = {"liggghts": "3.8.0", "yade": "2023.02a", "lammps": "20220106"}
+# the binary of each Debian package, where its name differs (lammps 20220106 is LAMMPS 29 Sep 2021)
+BINARY = {"lammps": "lmp"}
 
 
 class EngineError(RuntimeError):
@@ -22,7 +24,7 @@ def check_versions(engines):
                 raise EngineError(f"talus is not built: {TALUS} is missing (run `cargo build --release`)")
             continue
         want = REQUIRED[eng]
-        if shutil.which(eng) is None:
+        if shutil.which(BINARY.get(eng, eng)) is None:
             raise EngineError(f"{eng} is not installed: run `bash scripts/install.sh` (Debian package `{eng}` {want})")
         try:
             ver = subprocess.run(["dpkg-query", "-W", "-f=${Version}", eng], capture_output=True, text=True, check=True).stdout
@@ -147,7 +149,8 @@ def run_liggghts_h1(setup, work, fill_time, discharge_time, dt, skin):
 
 
 def liggghts_loop_seconds(log):
-    """Sum of LIGGGHTS's `Loop time` lines (the time stepping, set-up excluded) and steps."""
+    """Sum of LIGGGHTS's (or LAMMPS's) `Loop time` lines (the time stepping, set-up
+    excluded) and steps."""
     secs, steps = 0.0, 0
     for line in Path(log).read_text().splitlines():
         m = re.match(r"Loop time of ([0-9.eE+-]+) on \d+ procs for (\d+) steps", line)

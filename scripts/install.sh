@@ -2,7 +2,7 @@
 # Install everything talus needs on Debian bookworm (run as root), then build it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-pkgs=(libopenmpi-dev openmpi-bin libhdf5-dev libclang-dev pkg-config liggghts yade)
+pkgs=(libopenmpi-dev openmpi-bin libhdf5-dev libclang-dev pkg-config liggghts yade lammps time)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
