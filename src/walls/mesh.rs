@@ -12,6 +12,11 @@
 //! sphere on a shared edge of two coplanar triangles gets one contact, a sphere
 //! on a face near a convex edge gets only the face contact, and a sphere in a
 //! concave corner gets one contact from each face. Meshes are two-sided.
+//!
+//! Wall candidates come from a uniform grid over the triangles (`TriangleGrid`):
+//! a query visits only the cells its box overlaps, and returns exactly what a
+//! scan over every triangle would (the same triangles, in ascending order).
+//! Meshes of a few triangles are scanned, which is faster there.
 
 use crate::dim::Vec3;
 use crate::error::TalusError;
@@ -29,7 +34,12 @@ pub enum Region {
     Vertex(usize),
 }
 
+/// A triangle mesh wall: vertices, triangles, their adjacency and feature
+/// owners, bounding boxes and the grid that finds candidates. Vertices move only
+/// through [`Mesh::translate`] (which keeps boxes and grid in step). Serialised
+/// without its grid (the checkpoint layout is unchanged); deserialising builds it.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(from = "MeshFields")]
 pub struct Mesh {
     pub vertices: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
@@ -49,6 +59,201 @@ pub struct Mesh {
     aabb: Vec<(Vec3, Vec3)>,
     /// Bounding box of the whole mesh.
     bounds: (Vec3, Vec3),
+    /// The triangles binned into a uniform grid, for `candidates`.
+    #[serde(skip_serializing)]
+    grid: TriangleGrid,
+}
+
+/// The serialised fields of a [`Mesh`] (all but the grid, in the same order).
+#[derive(Deserialize)]
+struct MeshFields {
+    vertices: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    normals: Vec<Vec3>,
+    edge_owned: Vec<[bool; 3]>,
+    vertex_owned: Vec<[bool; 3]>,
+    edge_nb: Vec<[(u32, u32); 3]>,
+    edge_tris: Vec<u32>,
+    vertex_nb: Vec<(u32, u32)>,
+    vertex_tris: Vec<u32>,
+    aabb: Vec<(Vec3, Vec3)>,
+    bounds: (Vec3, Vec3),
+}
+
+impl From<MeshFields> for Mesh {
+    fn from(f: MeshFields) -> Mesh {
+        let grid = TriangleGrid::build(&f.aabb, f.bounds);
+        Mesh {
+            vertices: f.vertices,
+            triangles: f.triangles,
+            normals: f.normals,
+            edge_owned: f.edge_owned,
+            vertex_owned: f.vertex_owned,
+            edge_nb: f.edge_nb,
+            edge_tris: f.edge_tris,
+            vertex_nb: f.vertex_nb,
+            vertex_tris: f.vertex_tris,
+            aabb: f.aabb,
+            bounds: f.bounds,
+            grid,
+        }
+    }
+}
+
+/// Meshes of at most this many triangles find candidates by scanning them all:
+/// for the 26 triangles of the H1 hopper and box the scan takes 0.12 us per
+/// query, the grid 0.18 (`cargo bench --bench mesh`).
+pub const SCAN_MAX_TRIANGLES: usize = 32;
+
+/// Most cells a [`TriangleGrid`] may have, whatever the triangle count (4 Mi
+/// cells: 16 MiB of offsets).
+const GRID_MAX_CELLS: usize = 1 << 22;
+
+/// The triangles of a mesh binned into a uniform grid of cubic cells: each
+/// triangle is listed in every cell its bounding box overlaps, and
+/// `tris[start[c]..start[c + 1]]` holds cell c's triangles in ascending order
+/// (cells in x-fastest order, cell (0, 0, 0) with its low corner at `origin`).
+///
+/// Cell size: the median over the triangles of the longest side of their
+/// bounding boxes (a triangle then overlaps at most 2 cells along each axis),
+/// grown by factors of 1.5 until the grid has at most min(4 n, 2^22) cells and
+/// the triangles' cell memberships add up to at most 16 n (n triangles). Growing
+/// ends at the latest when one cell covers the mesh (n memberships), so a long
+/// thin mesh, a single huge triangle or a few huge triangles among many small
+/// ones cost O(n) memory: at most 4 n + 1 offsets and 16 n entries (u32 each).
+///
+/// Translating the mesh shifts `origin` by the same vector; the rounding by
+/// which the triangles' boxes and the origin may part over many shifts is
+/// bounded in `drift` and added to the margin of every query (a shift that lets
+/// it pass an eighth of a cell re-bins the triangles).
+#[derive(Clone, Debug)]
+struct TriangleGrid {
+    origin: Vec3,
+    /// Cell size (infinite when one cell covers the mesh).
+    h: f64,
+    inv_h: f64,
+    dims: [usize; 3],
+    start: Vec<u32>,
+    tris: Vec<u32>,
+    /// Largest |coordinate| of the origin and the triangles' boxes at binning.
+    scale0: f64,
+    /// Bound on how far translations' rounding has moved any triangle box
+    /// relative to the origin since binning.
+    drift: f64,
+}
+
+impl TriangleGrid {
+    /// Bin the triangles with boxes `aabb` (whole mesh: `bounds`); the rule for
+    /// the cell size is in the type's documentation.
+    fn build(aabb: &[(Vec3, Vec3)], bounds: (Vec3, Vec3)) -> TriangleGrid {
+        let nt = aabb.len();
+        let origin = if bounds.0.iter().all(|x| x.is_finite()) { bounds.0 } else { Vec3::zeros() };
+        let ext = bounds.1 - bounds.0;
+        let scale0 = bounds.0.amax().max(bounds.1.amax());
+        let mut g = TriangleGrid {
+            origin,
+            h: f64::INFINITY,
+            inv_h: 0.0,
+            dims: [1; 3],
+            start: vec![0, 0],
+            tris: Vec::new(),
+            scale0,
+            drift: 0.0,
+        };
+        if nt == 0 || !ext.iter().all(|x| x.is_finite()) {
+            g.fill(aabb);
+            return g;
+        }
+        let mut sides: Vec<f64> = aabb.iter().map(|(lo, hi)| (hi - lo).max()).collect();
+        let (_, &mut median, _) = sides.select_nth_unstable_by(nt / 2, f64::total_cmp);
+        let mut h = if median > 0.0 { median } else { ext.max() };
+        let cell_cap = (4 * nt).min(GRID_MAX_CELLS);
+        let entry_cap = 16 * nt as u64;
+        // ends: h grows until one cell covers the (finite) extent
+        while h > 0.0 && h.is_finite() {
+            let dims = ext.map(|e| (e / h).ceil().max(1.0));
+            let cells = dims.x * dims.y * dims.z;
+            if cells <= 1.0 {
+                break;
+            }
+            if cells <= cell_cap as f64 {
+                g.set_cells(h, [dims.x as usize, dims.y as usize, dims.z as usize]);
+                let entries: u64 =
+                    aabb.iter().map(|b| g.span(b).iter().map(|&(a, z)| (z - a + 1) as u64).product::<u64>()).sum();
+                if entries <= entry_cap {
+                    g.fill(aabb);
+                    return g;
+                }
+            }
+            h *= 1.5;
+        }
+        g.set_cells(f64::INFINITY, [1; 3]);
+        g.fill(aabb);
+        g
+    }
+
+    fn set_cells(&mut self, h: f64, dims: [usize; 3]) {
+        self.h = h;
+        self.inv_h = if dims == [1; 3] { 0.0 } else { 1.0 / h };
+        self.dims = dims;
+    }
+
+    /// The cell index along `axis` of coordinate x, clamped to the grid
+    /// (monotone in x; NaN gives 0).
+    #[inline(always)]
+    fn index(&self, axis: usize, x: f64) -> usize {
+        let f = ((x - self.origin[axis]) * self.inv_h).floor();
+        let top = self.dims[axis] - 1;
+        if !(f > 0.0) {
+            0
+        } else if f >= top as f64 {
+            top
+        } else {
+            f as usize
+        }
+    }
+
+    /// The range of cells (first, last) along each axis that box b overlaps.
+    #[inline(always)]
+    fn span(&self, b: &(Vec3, Vec3)) -> [(usize, usize); 3] {
+        std::array::from_fn(|k| (self.index(k, b.0[k]), self.index(k, b.1[k])))
+    }
+
+    /// Call f with every cell that box b overlaps.
+    #[inline(always)]
+    fn for_cells(&self, b: &(Vec3, Vec3), mut f: impl FnMut(usize)) {
+        let [(x0, x1), (y0, y1), (z0, z1)] = self.span(b);
+        for k in z0..=z1 {
+            for j in y0..=y1 {
+                for i in x0..=x1 {
+                    f(i + self.dims[0] * (j + self.dims[1] * k));
+                }
+            }
+        }
+    }
+
+    /// Count, then list, every triangle in the cells its box overlaps (in
+    /// triangle order, so each cell's list is ascending).
+    fn fill(&mut self, aabb: &[(Vec3, Vec3)]) {
+        let cells = self.dims.iter().product::<usize>();
+        let mut start = vec![0u32; cells + 1];
+        for b in aabb {
+            self.for_cells(b, |c| start[c + 1] += 1);
+        }
+        for c in 0..cells {
+            start[c + 1] += start[c];
+        }
+        let mut next = start.clone();
+        let mut tris = vec![0u32; start[cells] as usize];
+        for (t, b) in aabb.iter().enumerate() {
+            self.for_cells(b, |c| {
+                tris[next[c] as usize] = t as u32;
+                next[c] += 1;
+            });
+        }
+        self.start = start;
+        self.tris = tris;
+    }
 }
 
 /// Closest point on triangle (a, b, c) to p, with its region (Ericson,
@@ -125,6 +330,12 @@ impl Mesh {
                 return Err(format!("vertex {i} is not finite: {v:?}"));
             }
         }
+        if triangles.len() > (u32::MAX / 16) as usize {
+            return Err(format!("{} facets: more than the {} a mesh may have", triangles.len(), u32::MAX / 16));
+        }
+        if let Some((t, tri)) = triangles.iter().enumerate().find(|(_, tri)| tri.iter().any(|&k| k as usize >= vertices.len())) {
+            return Err(format!("facet {t} names vertex {} of {} vertices", tri.iter().max().copied().unwrap_or(0), vertices.len()));
+        }
         let mut lo = Vec3::repeat(f64::INFINITY);
         let mut hi = Vec3::repeat(f64::NEG_INFINITY);
         for v in &vertices {
@@ -200,6 +411,7 @@ impl Mesh {
             vertex_tris,
             aabb: Vec::new(),
             bounds: (Vec3::zeros(), Vec3::zeros()),
+            grid: TriangleGrid::build(&[], (Vec3::zeros(), Vec3::zeros())),
         };
         m.update_boxes();
         Ok(m)
@@ -215,8 +427,11 @@ impl Mesh {
         let lo = self.aabb.iter().fold(Vec3::repeat(f64::INFINITY), |m, b| m.inf(&b.0));
         let hi = self.aabb.iter().fold(Vec3::repeat(f64::NEG_INFINITY), |m, b| m.sup(&b.1));
         self.bounds = (lo, hi);
+        self.grid = TriangleGrid::build(&self.aabb, self.bounds);
     }
 
+    /// Move the mesh by d: vertices, boxes and the grid's origin (the triangles
+    /// stay in their cells; see `TriangleGrid` in mesh.rs for the rounding).
     pub fn translate(&mut self, d: Vec3) {
         for v in &mut self.vertices {
             *v += d;
@@ -227,6 +442,14 @@ impl Mesh {
         }
         self.bounds.0 += d;
         self.bounds.1 += d;
+        let g = &mut self.grid;
+        g.origin += d;
+        // each box coordinate and the origin's are rounded once (half an ulp each)
+        let scale = g.origin.amax().max(self.bounds.0.amax()).max(self.bounds.1.amax());
+        g.drift += f64::EPSILON * (scale + 2.0 * d.amax());
+        if g.drift > 0.125 * g.h {
+            self.grid = TriangleGrid::build(&self.aabb, self.bounds);
+        }
     }
 
     #[inline(always)]
@@ -239,8 +462,80 @@ impl Mesh {
         self.triangles[t].map(|k| self.vertices[k as usize])
     }
 
-    /// Triangles whose distance from c is below `reach`.
+    /// Triangles whose distance from c is below `reach`, appended to `out` in
+    /// ascending order: from the grid ([`Mesh::candidates_grid`]), or for a mesh
+    /// of at most [`SCAN_MAX_TRIANGLES`] triangles from a scan of all of them
+    /// ([`Mesh::candidates_linear`]). Both give the same triangles.
+    #[inline]
     pub fn candidates(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
+        if self.triangles.len() <= SCAN_MAX_TRIANGLES {
+            self.candidates_linear(c, reach, out);
+        } else {
+            self.candidates_grid(c, reach, out);
+        }
+    }
+
+    /// [`Mesh::candidates`] from the grid: only the triangles listed in the
+    /// cells that the box c +- (reach + margin) overlaps are tested (margin: a
+    /// bound on rounding, see `TriangleGrid`); each is tested as
+    /// [`Mesh::candidates_linear`] tests it, so both give the same triangles.
+    #[doc(hidden)]
+    pub fn candidates_grid(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
+        if Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
+            return;
+        }
+        let g = &self.grid;
+        // A box that passes the test below overlaps the query box in exact
+        // arithmetic up to a few roundings of coordinates of size `scale`; the
+        // margin covers four times that, plus the translations' drift.
+        let scale = g.scale0 + g.origin.amax() + self.bounds.0.amax().max(self.bounds.1.amax()) + c.amax() + reach;
+        let m = reach + g.drift + 4.0 * f64::EPSILON * scale;
+        let lo: [usize; 3] = std::array::from_fn(|k| g.index(k, c[k] - m));
+        let hi: [usize; 3] = std::array::from_fn(|k| g.index(k, c[k] + m));
+        let first = out.len();
+        let mut cells_with_hits = 0;
+        for k in lo[2]..=hi[2] {
+            for j in lo[1]..=hi[1] {
+                let row = g.dims[0] * (j + g.dims[1] * k);
+                for i in lo[0]..=hi[0] {
+                    let cell = row + i;
+                    let before = out.len();
+                    for &t in &g.tris[g.start[cell] as usize..g.start[cell + 1] as usize] {
+                        let (blo, bhi) = &self.aabb[t as usize];
+                        if !Self::outside(blo, bhi, c, reach) {
+                            out.push(t);
+                        }
+                    }
+                    cells_with_hits += (out.len() > before) as usize;
+                }
+            }
+        }
+        // one cell's list is ascending; several may share triangles
+        if cells_with_hits > 1 {
+            out[first..].sort_unstable();
+        }
+        let mut kept = first;
+        let mut prev = None;
+        for k in first..out.len() {
+            let t = out[k];
+            if prev == Some(t) {
+                continue;
+            }
+            prev = Some(t);
+            let [a, b, d] = self.corners(t as usize);
+            let (p, _) = closest_point(c, &a, &b, &d);
+            if (c - p).norm_squared() < reach * reach {
+                out[kept] = t;
+                kept += 1;
+            }
+        }
+        out.truncate(kept);
+    }
+
+    /// [`Mesh::candidates`] by a scan over every triangle's bounding box (the
+    /// reference the grid is tested and benchmarked against).
+    #[doc(hidden)]
+    pub fn candidates_linear(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
         if Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
             return;
         }
@@ -254,6 +549,13 @@ impl Mesh {
                 out.push(t as u32);
             }
         }
+    }
+
+    /// Number of cells of the triangle grid and number of (cell, triangle)
+    /// entries in it (for tests of its memory bound).
+    #[doc(hidden)]
+    pub fn grid_size(&self) -> (usize, usize) {
+        (self.grid.start.len() - 1, self.grid.tris.len())
     }
 
     /// The contact of a sphere (centre c, radius r) with triangle t, or None when
@@ -382,6 +684,8 @@ fn check_stl(name: &str, bytes: &[u8]) -> Result<(), TalusError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     fn square() -> Mesh {
         // unit square in z = 0 made of two triangles sharing the diagonal (0,0)-(1,1)
@@ -492,6 +796,156 @@ mod tests {
         assert!(e.contains("header says 2 facets") && e.contains("184 bytes") && e.contains("has 134 bytes"), "{e}");
         bin.extend([0u8; 50]);
         assert!(check_stl("x.stl", &bin).is_ok());
+    }
+
+    /// A UV sphere: `n_lat` bands of `n_lon` segments (2 n_lon (n_lat - 1) triangles).
+    fn uv_sphere(center: Vec3, radius: f64, n_lat: usize, n_lon: usize) -> Mesh {
+        let mut v = vec![center + Vec3::z() * radius, center - Vec3::z() * radius];
+        for i in 1..n_lat {
+            let th = std::f64::consts::PI * i as f64 / n_lat as f64;
+            for j in 0..n_lon {
+                let ph = 2.0 * std::f64::consts::PI * j as f64 / n_lon as f64;
+                v.push(center + radius * Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
+            }
+        }
+        let ring = |i: usize, j: usize| (2 + (i - 1) * n_lon + j % n_lon) as u32;
+        let mut t = Vec::new();
+        for j in 0..n_lon {
+            t.push([0, ring(1, j), ring(1, j + 1)]);
+            t.push([1, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)]);
+        }
+        for i in 1..n_lat - 1 {
+            for j in 0..n_lon {
+                t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+                t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+            }
+        }
+        Mesh::new(v, t).unwrap()
+    }
+
+    /// Separate triangles of sizes from 1e-3 to 1 times the box (stretched along
+    /// the axes by `aspect`), centred in the box of side `size` at the origin.
+    fn soup(rng: &mut ChaCha8Rng, n: usize, size: f64, aspect: Vec3) -> Option<Mesh> {
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        for k in 0..n {
+            let centre = Vec3::from_fn(|_, _| size * (rng.random::<f64>() - 0.5));
+            let s = size * 10f64.powf(-3.0 * rng.random::<f64>());
+            for _ in 0..3 {
+                v.push((centre + Vec3::from_fn(|_, _| s * (rng.random::<f64>() - 0.5))).component_mul(&aspect));
+            }
+            t.push([3 * k as u32, 3 * k as u32 + 1, 3 * k as u32 + 2]);
+        }
+        Mesh::new(v, t).ok()
+    }
+
+    /// Query centres: near a triangle (a point of it moved by up to twice the
+    /// reach), in the mesh's box, or on a box face of a triangle pushed out by
+    /// exactly the reach (the edge of the bounding-box test).
+    fn check_against_scan(m: &Mesh, rng: &mut ChaCha8Rng, queries: usize) {
+        let (blo, bhi) = m.bounds;
+        let size = (bhi - blo).max();
+        let mut out = vec![7u32, 3];
+        let mut want = vec![7u32, 3];
+        for q in 0..queries {
+            let reach = size * 10f64.powf(-4.0 + 4.3 * rng.random::<f64>());
+            let t = rng.random_range(0..m.triangles.len());
+            let [a, b, d] = m.corners(t);
+            let (u, w) = (rng.random::<f64>(), rng.random::<f64>());
+            let (u, w) = if u + w > 1.0 { (1.0 - u, 1.0 - w) } else { (u, w) };
+            let on = a + (b - a) * u + (d - a) * w;
+            let c = match q % 3 {
+                0 => on + Vec3::from_fn(|_, _| 2.0 * reach * (2.0 * rng.random::<f64>() - 1.0)),
+                1 => blo + (bhi - blo).component_mul(&Vec3::from_fn(|_, _| 1.2 * rng.random::<f64>() - 0.1)),
+                _ => {
+                    let k = rng.random_range(0..3);
+                    let mut c = on;
+                    c[k] = if rng.random::<bool>() { m.aabb[t].1[k] + reach } else { m.aabb[t].0[k] - reach };
+                    c
+                }
+            };
+            out.truncate(2);
+            want.truncate(2);
+            m.candidates_grid(&c, reach, &mut out);
+            m.candidates_linear(&c, reach, &mut want);
+            assert_eq!(out, want, "query {q} at {c:?}, reach {reach:e}");
+        }
+    }
+
+    fn moved(m: &Mesh, rng: &mut ChaCha8Rng, steps: usize, step: f64) -> Mesh {
+        let mut m = m.clone();
+        let d = Vec3::from_fn(|_, _| step * (2.0 * rng.random::<f64>() - 1.0));
+        for _ in 0..steps {
+            m.translate(d);
+        }
+        m
+    }
+
+    #[test]
+    fn grid_candidates_equal_a_scan_of_every_triangle_for_random_and_moved_meshes() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut meshes = vec![uv_sphere(Vec3::new(0.3, -0.2, 1.0), 0.1, 40, 60), uv_sphere(Vec3::zeros(), 1e-3, 3, 3), square()];
+        let (hopper, lower) = crate::generate::hopper_meshes();
+        meshes.push(hopper);
+        meshes.push(lower);
+        for k in 0..24 {
+            let n = [1, 2, 5, 40, 300][k % 5];
+            let size = 10f64.powf(-3.0 + 4.0 * rng.random::<f64>());
+            let aspect = if k % 3 == 0 { Vec3::new(1.0, 1e-2, 1e-3) } else { Vec3::repeat(1.0) };
+            meshes.extend(soup(&mut rng, n, size, aspect));
+        }
+        for m in &meshes {
+            let size = (m.bounds.1 - m.bounds.0).max();
+            check_against_scan(m, &mut rng, 400);
+            // moved along with its wall, step by step and far away
+            check_against_scan(&moved(m, &mut rng, 2000, 1e-4 * size), &mut rng, 400);
+            check_against_scan(&moved(m, &mut rng, 3, 1e3 * size), &mut rng, 400);
+            // so far that the rounding of the moves re-bins the triangles
+            let far = moved(m, &mut rng, 3, 1e15 * size);
+            assert!(far.grid.drift == 0.0 || far.grid.dims == [1; 3], "not re-binned: {:?}", far.grid.dims);
+            check_against_scan(&far, &mut rng, 400);
+        }
+    }
+
+    #[test]
+    fn grid_memory_is_bounded_for_a_huge_triangle_a_thin_strip_and_mixed_sizes() {
+        let huge = Mesh::new(vec![Vec3::zeros(), Vec3::x() * 1e6, Vec3::new(0.0, 1e6, 1e6)], vec![[0, 1, 2]]).unwrap();
+        // a strip 100 m long and 1 cm wide of 20,000 triangles, with one 100 m triangle across it
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        for i in 0..=10_000u32 {
+            v.push(Vec3::new(0.01 * i as f64, 0.0, 0.0));
+            v.push(Vec3::new(0.01 * i as f64, 0.01, 1e-3 * (i % 2) as f64));
+        }
+        for i in 0..10_000u32 {
+            t.push([2 * i, 2 * i + 2, 2 * i + 3]);
+            t.push([2 * i, 2 * i + 3, 2 * i + 1]);
+        }
+        let strip = Mesh::new(v.clone(), t.clone()).unwrap();
+        v.extend([Vec3::new(0.0, -50.0, -50.0), Vec3::new(100.0, -50.0, 50.0), Vec3::new(50.0, 50.0, 0.0)]);
+        t.push([20_002, 20_003, 20_004]);
+        let mixed = Mesh::new(v, t).unwrap();
+        for m in [&huge, &strip, &mixed] {
+            let n = m.triangles.len();
+            let (cells, entries) = m.grid_size();
+            assert!(cells <= 4 * n && entries <= 16 * n, "{n} triangles: {cells} cells, {entries} entries");
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        check_against_scan(&huge, &mut rng, 200);
+        check_against_scan(&strip, &mut rng, 2000);
+        check_against_scan(&mixed, &mut rng, 2000);
+    }
+
+    #[test]
+    fn a_mesh_read_back_from_a_checkpoint_has_the_same_bytes_and_candidates() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut m = uv_sphere(Vec3::zeros(), 1.0, 20, 30);
+        m.translate(Vec3::new(0.1, 0.0, -0.3));
+        let bytes = bincode::serialize(&m).unwrap();
+        let back: Mesh = bincode::deserialize(&bytes).unwrap();
+        assert_eq!(bincode::serialize(&back).unwrap(), bytes);
+        assert_eq!(back.grid_size(), uv_sphere(Vec3::zeros(), 1.0, 20, 30).grid_size());
+        check_against_scan(&back, &mut rng, 1000);
     }
 
     #[test]
