@@ -11,6 +11,7 @@ talus=${TALUS:-./target/release/talus}
 steps_for() {
   case "$1" in
     H1-paper) echo 300 ;;
+    H1-paper-300k) echo 100 ;;
     H1-small|shear-bed) echo 3000 ;;
     *) echo "" ;;
   esac

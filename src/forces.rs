@@ -24,6 +24,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// 2 MIN_LEN of each is never split, so it runs on the calling thread.
 pub const MIN_LEN: usize = 256;
 
+/// How many particles ahead the gather fetches the pair results it will read.
+const PREFETCH: usize = 6;
+
 /// Everything the sweep needs besides state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SweepSettings {
@@ -173,9 +176,6 @@ fn pair_forces<L: ContactLaw>(
 ) -> (usize, usize) {
     let n_own = p.owned();
     let (consts, _) = nl.law_constants.get::<L>();
-    // the flags are written for every pair; the forces for touching pairs only
-    nl.pair_touch.resize(nl.pairs.len(), false);
-    nl.pair_out.resize(nl.pairs.len(), PairOut::default());
     // which particles touch anything (set by any thread, read after: the value
     // does not depend on the order), so the gather skips the free ones
     let touched: Vec<AtomicBool> = (0..p.len()).map(|_| AtomicBool::new(false)).collect();
@@ -189,11 +189,16 @@ fn pair_forces<L: ContactLaw>(
         .with_min_len(s.grain)
         .map(|(((&(a, b), hist), (touch, out)), (pair, &pi))| {
             let (a, b) = (a as usize, b as usize);
+            // invariant: a pair whose flag is down has zeros in `out`
+            let touch_was = *touch;
             let Some(g) = shapes.pair(pr, a, b) else {
                 if *hist != Vec3::zeros() {
                     *hist = Vec3::zeros();
                 }
-                *touch = false;
+                if touch_was {
+                    *touch = false;
+                    *out = PairOut::default();
+                }
                 return (0, 0);
             };
             let pm = table.get(pr.material[a], pr.material[b]);
@@ -207,27 +212,46 @@ fn pair_forces<L: ContactLaw>(
         })
         .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
     let (start, incident, rows, touch, out) = (&nl.incident_start, &nl.incident, &nl.row_start, &nl.pair_touch, &nl.pair_out);
-    p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(s.grain).for_each(
-        |(i, (f, t))| {
+    let gather = |(i, (f, t)): (usize, (&mut Vec3, &mut Vec3))| {
+            // the pair results a later particle will read, fetched ahead
+            #[cfg(target_arch = "x86_64")]
+            if i + PREFETCH < n_own {
+                let j = i + PREFETCH;
+                for &k in &incident[start[j] as usize..start[j + 1] as usize] {
+                    // SAFETY: a prefetch is only a hint, and the address is in bounds
+                    unsafe {
+                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                        _mm_prefetch::<_MM_HINT_T0>(out.as_ptr().add(k as usize) as *const i8);
+                    }
+                }
+            }
             if !touched[i].load(Ordering::Relaxed) {
                 return;
             }
-            // partners of lower id (i is the pair's b), in order of id ...
+            // partners of lower id (i is the pair's b), in order of id: zeros
+            // for those that do not touch change nothing (f - 0 is f, and a
+            // torque sum, which starts at +0, is never -0, so t + 0 is t) ...
+            // (summed in locals, which stay in registers)
+            let (mut fs, mut ts) = (*f, *t);
             for &k in &incident[start[i] as usize..start[i + 1] as usize] {
-                let k = k as usize;
-                if touch[k] {
-                    *f -= out[k].force;
-                    *t += out[k].torque_b;
-                }
+                let c = &out[k as usize];
+                fs -= c.force;
+                ts += c.torque_b;
             }
             // ... then those of higher id: i's row, already in order of id
             let row = rows[i] as usize..rows[i + 1] as usize;
             for (c, _) in out[row.clone()].iter().zip(&touch[row]).filter(|x| *x.1) {
-                *f += c.force;
-                *t += c.torque_a;
+                fs += c.force;
+                ts += c.torque_a;
             }
-        },
-    );
+            *f = fs;
+            *t = ts;
+        };
+    if s.grain == usize::MAX {
+        p.force[..n_own].iter_mut().zip(p.torque[..n_own].iter_mut()).enumerate().for_each(gather);
+    } else {
+        p.force[..n_own].par_iter_mut().zip(p.torque[..n_own].par_iter_mut()).enumerate().with_min_len(s.grain).for_each(gather);
+    }
     counts
 }
 

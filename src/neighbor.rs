@@ -1,6 +1,7 @@
 //! Neighbour search: a cell grid feeds Verlet lists with a skin. The lists are
 //! rebuilt when any particle has moved more than half the skin since the last
-//! build. Cost per step is linear in N (each particle looks at 27 cells).
+//! build. Cost per build is linear in N (each particle looks at the 5 x 5 x 5
+//! cells of half the interaction range around its own).
 //!
 //! Each pair is (a, b) with id_a < id_b, in storage order of a. Every owned
 //! particle keeps its pairs in order of its partners' global ids
@@ -114,8 +115,8 @@ pub struct NeighborList {
     /// The owned particles that have wall candidates, in storage order.
     #[serde(skip)]
     pub wall_owners: Vec<u32>,
-    /// Each touching pair's force and torques from the last sweep (written
-    /// for touching pairs only).
+    /// Each pair's force and torques from the last sweep, in list order
+    /// (zeros where the pair does not touch).
     #[serde(skip)]
     pub pair_out: Vec<PairOut>,
     /// Whether the list is built on the rank's threads (the caller runs the
@@ -215,14 +216,16 @@ impl NeighborList {
             start: std::mem::take(&mut self.row_start),
         };
         rows.clear();
+        let first = history_runs(p, old_pair);
+        let old = OldPairs { pairs: old_pair, first: &first };
         if !self.threaded || n <= 2 * ROW_BLOCK {
-            rows.find(p, grid, old_pair, 0..n);
+            rows.find(p, grid, &old, 0..n);
         } else {
             let blocks: Vec<Rows> = (0..n.div_ceil(ROW_BLOCK))
                 .into_par_iter()
                 .map(|b| {
                     let mut r = Rows::default();
-                    r.find(p, grid, old_pair, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n));
+                    r.find(p, grid, &old, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n));
                     r
                 })
                 .collect();
@@ -300,6 +303,11 @@ impl NeighborList {
         }
         self.incident.clear();
         self.incident.extend(keyed.iter().map(|x| x.1));
+        // a new list starts with no pair touching and zeros for every pair
+        self.pair_touch.clear();
+        self.pair_touch.resize(self.pairs.len(), false);
+        self.pair_out.clear();
+        self.pair_out.resize(self.pairs.len(), PairOut::default());
     }
 
     /// Every owned particle's wall candidates `(wall, feature)` within reach,
@@ -343,6 +351,66 @@ impl NeighborList {
     }
 }
 
+/// The contact history of the last build, sorted by ids, and where each
+/// particle's run of it starts (`first[a]`: the first entry whose lower id is
+/// particle a's; the end of the history if there is none).
+struct OldPairs<'a> {
+    pairs: &'a [((u64, u64), Vec3)],
+    first: &'a [u32],
+}
+
+/// Where each particle's run of the sorted history starts (`OldPairs::first`),
+/// by one pass over the history: particles are looked up by id in a table
+/// indexed by id where the ids are dense (as the generators and files give
+/// them), else by a binary search per run. Looking each particle up in the
+/// history instead (a binary search per particle, in storage order) misses
+/// the cache at every step of every search.
+fn history_runs(p: &Particles, old_pair: &[((u64, u64), Vec3)]) -> Vec<u32> {
+    let n = p.len();
+    let end = old_pair.len() as u32;
+    if old_pair.is_empty() {
+        return vec![end; n];
+    }
+    // a particle without a run starts at the end: it finds no history
+    let mut first = vec![end; n];
+    let max_id = p.id.iter().copied().max().unwrap_or(0);
+    let dense = max_id < (4 * n as u64 + 1024);
+    let local: Vec<u32> = if dense {
+        let mut t = vec![u32::MAX; max_id as usize + 1];
+        for (i, &id) in p.id.iter().enumerate() {
+            t[id as usize] = i as u32;
+        }
+        t
+    } else {
+        Vec::new()
+    };
+    let sorted: Vec<(u64, u32)> = if dense {
+        Vec::new()
+    } else {
+        let mut v: Vec<(u64, u32)> = p.id.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
+        v.sort_unstable();
+        v
+    };
+    let lookup = |id: u64| -> Option<usize> {
+        if dense {
+            local.get(id as usize).copied().filter(|&i| i != u32::MAX).map(|i| i as usize)
+        } else {
+            sorted.binary_search_by_key(&id, |x| x.0).ok().map(|k| sorted[k].1 as usize)
+        }
+    };
+    let mut k = 0;
+    while k < old_pair.len() {
+        let ida = old_pair[k].0 .0;
+        if let Some(a) = lookup(ida) {
+            first[a] = k as u32;
+        }
+        while k < old_pair.len() && old_pair[k].0 .0 == ida {
+            k += 1;
+        }
+    }
+    first
+}
+
 /// Particles a thread takes at once when the pairs are found on several threads.
 const ROW_BLOCK: usize = 2048;
 
@@ -366,7 +434,8 @@ impl Rows {
 
     /// Append the rows of particles `range`: each particle's partners of
     /// higher id within reach, in order of id.
-    fn find(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Vec3)], range: std::ops::Range<usize>) {
+    fn find(&mut self, p: &Particles, grid: &CellGrid, old: &OldPairs, range: std::ops::Range<usize>) {
+        let old_pair = old.pairs;
         let n_own = p.owned();
         let mut row: Vec<(u64, u32)> = Vec::with_capacity(64);
         let [nx, ny, nz] = grid.dims;
@@ -383,10 +452,11 @@ impl Rows {
             let c = grid.cells[a];
             let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
             row.clear();
-            let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(nx - 1));
-            for z in cz.saturating_sub(1)..=(cz + 1).min(nz - 1) {
-                for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
-                    // the three cells along x are contiguous in the sorted arrays
+            let r = grid.reach;
+            let (x0, x1) = (cx.saturating_sub(r), (cx + r).min(nx - 1));
+            for z in cz.saturating_sub(r)..=(cz + r).min(nz - 1) {
+                for y in cy.saturating_sub(r)..=(cy + r).min(ny - 1) {
+                    // the cells along x are contiguous in the sorted arrays
                     let base = (z * ny + y) * nx;
                     let (lo, hi) = (grid.start[base + x0] as usize, grid.start[base + x1 + 1] as usize);
                     for &(idb, b, q) in &grid.sorted[lo..hi] {
@@ -405,7 +475,7 @@ impl Rows {
             }
             row.sort_unstable();
             // a's old pairs are one run of the sorted history, in the row's order
-            let mut cursor = if row.is_empty() { 0 } else { old_pair.partition_point(|x| x.0 .0 < ida) };
+            let mut cursor = if row.is_empty() { 0 } else { old.first[a] as usize };
             for &(idb, b) in &row {
                 let key = (ida, idb);
                 while cursor < old_pair.len() && old_pair[cursor].0 < key {
@@ -421,11 +491,14 @@ impl Rows {
     }
 }
 
-/// The particles counting-sorted into cells no smaller than the interaction
-/// range, over their bounding box: `sorted[start[c]..start[c + 1]]` holds cell
-/// c's particles as (id, index, [x, y, z, radius + skin]), cells in x-fastest order.
+/// The particles counting-sorted into cells of half the interaction range (or
+/// no smaller than it where the cell count is capped), over their bounding
+/// box: `sorted[start[c]..start[c + 1]]` holds cell c's particles as (id,
+/// index, [x, y, z, radius + skin]), cells in x-fastest order.
 struct CellGrid {
     dims: [usize; 3],
+    /// How many cells out a particle's partners can be (1 or 2).
+    reach: usize,
     start: Vec<u32>,
     /// Each particle's cell.
     cells: Vec<usize>,
@@ -448,10 +521,14 @@ impl CellGrid {
             hi = Vec3::zeros();
         }
         let ext = (hi - lo).add_scalar(1e-9);
-        // cells no smaller than the interaction range, and at most 64 per particle
-        // (a huge domain with few particles must not allocate a huge grid)
+        // cells of half the interaction range, searched two cells out (a
+        // stencil of 5 x 5 x 5 half cells covers 58% of the volume of 3 x 3 x 3
+        // whole ones: fewer distance tests); at most 64 cells per particle (a
+        // huge domain with few particles must not allocate a huge grid), whole
+        // cells where that cap binds
         let cap = (ext.x * ext.y * ext.z / (64.0 * n.max(1024) as f64)).cbrt();
-        let cell = (2.0 * rmax + skin).max(cap).max(1e-12);
+        let range = (2.0 * rmax + skin).max(1e-12);
+        let (cell, reach) = if 0.5 * range >= cap { (0.5 * range, 2) } else { (range.max(cap), 1) };
         let dims = [0, 1, 2].map(|k| ((ext[k] / cell).floor() as usize).clamp(1, 1 << 20));
         let ncell = dims[0] * dims[1] * dims[2];
         let cell_of = |x: &Vec3| -> usize {
@@ -478,7 +555,7 @@ impl CellGrid {
             sorted[fill[c] as usize] = (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i] + skin]);
             fill[c] += 1;
         }
-        CellGrid { dims, start, cells, sorted }
+        CellGrid { dims, reach, start, cells, sorted }
     }
 }
 

@@ -83,7 +83,7 @@ pub struct Simulation {
     /// The first step at whose list rebuild the storage order is remade.
     next_reorder: u64,
     /// This rank's threads (the force sweep runs on them).
-    pool: rayon::ThreadPool,
+    pool: std::sync::Arc<rayon::ThreadPool>,
 }
 
 /// Rayleigh time of a sphere: pi R sqrt(rho / G) / (0.1631 nu + 0.8766).
@@ -153,10 +153,12 @@ impl Simulation {
             analysis,
             clumps,
         };
-        let pool = thread_pool(&case, &par)?;
+        let pool = std::sync::Arc::new(thread_pool(&case, &par)?);
         let mut set = set;
+        let mut par = par;
         if pool.current_num_threads() > 1 {
             set.sweep.grain = crate::forces::MIN_LEN;
+            par.pool = Some(pool.clone());
         }
         Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool })
     }

@@ -91,6 +91,9 @@ pub struct Parallel {
     reorders: u64,
     /// Remake the storage order at the next migration (then cleared).
     pub reorder_now: bool,
+    /// The rank's threads, where it has more than one: migration sorts the
+    /// kept contact history on them.
+    pub pool: Option<std::sync::Arc<rayon::ThreadPool>>,
 }
 
 fn bin<T: Serialize>(x: &T) -> Vec<u8> {
@@ -119,6 +122,7 @@ impl Parallel {
             stop: None,
             order: Default::default(),
             reorders: 0,
+            pool: None,
             reorder_now: true,
         }
     }
