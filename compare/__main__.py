@@ -97,6 +97,11 @@ def print_sc(results):
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["window"]:  # H1-paper discharge window, its own options: compare/window.py
+        from . import window
+        return window.main(argv[1:])
+
     ap = argparse.ArgumentParser(prog="python -m compare", description=__doc__.splitlines()[0])
     ap.add_argument("setup", choices=SC_SETUPS + H1_SETUPS + ["throughput"])
     ap.add_argument("target", nargs="?", choices=H1_SETUPS + list(BEDS),
