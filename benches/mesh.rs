@@ -30,28 +30,7 @@ fn h1_mesh() -> Mesh {
 
 /// A UV sphere of radius 0.1 m: `n_lat` bands of `n_lon` segments, 2 n_lon (n_lat - 1) triangles.
 fn sphere(n_lat: usize, n_lon: usize) -> Mesh {
-    let r = 0.1;
-    let mut v = vec![Vec3::z() * r, -Vec3::z() * r];
-    for i in 1..n_lat {
-        let th = std::f64::consts::PI * i as f64 / n_lat as f64;
-        for j in 0..n_lon {
-            let ph = 2.0 * std::f64::consts::PI * j as f64 / n_lon as f64;
-            v.push(r * Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
-        }
-    }
-    let ring = |i: usize, j: usize| (2 + (i - 1) * n_lon + j % n_lon) as u32;
-    let mut t = Vec::new();
-    for j in 0..n_lon {
-        t.push([0, ring(1, j), ring(1, j + 1)]);
-        t.push([1, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)]);
-    }
-    for i in 1..n_lat - 1 {
-        for j in 0..n_lon {
-            t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-            t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-        }
-    }
-    Mesh::new(v, t).unwrap()
+    talus::walls::mesh::uv_sphere(Vec3::zeros(), 0.1, n_lat, n_lon)
 }
 
 /// Particle radius and reach (radius + skin) of the queries, as in H1.

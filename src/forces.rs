@@ -18,7 +18,7 @@ use crate::neighbor::{NeighborList, PairOut};
 use crate::particles::Particles;
 use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 
 /// Fewest pairs or particles a thread takes at once. A sweep over at most
 /// 2 MIN_LEN of each is never split, so it runs on the calling thread.
@@ -178,7 +178,7 @@ fn pair_forces<L: ContactLaw>(
     let (consts, _) = nl.law_constants.get::<L>();
     // which particles touch anything (set by any thread, read after: the value
     // does not depend on the order), so the gather skips the free ones
-    let touched: Vec<AtomicBool> = (0..p.len()).map(|_| AtomicBool::new(false)).collect();
+    let touched = nl.touched.reset(p.len());
     let pr: &Particles = p;
     let counts = nl
         .pairs

@@ -112,6 +112,10 @@ pub struct NeighborList {
     /// holds many more pairs than contacts while particles fall).
     #[serde(skip)]
     pub pair_touch: Vec<bool>,
+    /// Whether each particle touches anything at this sweep (work space of
+    /// the force sweep, kept to spare an allocation a step).
+    #[serde(skip)]
+    pub touched: TouchFlags,
     /// The owned particles that have wall candidates, in storage order.
     #[serde(skip)]
     pub wall_owners: Vec<u32>,
@@ -128,6 +132,36 @@ pub struct NeighborList {
     /// Largest distance any wall has moved since the last build (m).
     pub wall_moved: f64,
     pub builds: u64,
+}
+
+/// One flag a particle, set by any thread of the force sweep and read after it.
+#[derive(Default)]
+pub struct TouchFlags(Vec<std::sync::atomic::AtomicBool>);
+
+impl TouchFlags {
+    /// `n` flags, all down (the buffer is kept between calls).
+    pub fn reset(&mut self, n: usize) -> &[std::sync::atomic::AtomicBool] {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        self.0.truncate(n);
+        for f in &self.0 {
+            f.store(false, Ordering::Relaxed);
+        }
+        self.0.resize_with(n, || AtomicBool::new(false));
+        &self.0
+    }
+}
+
+impl Clone for TouchFlags {
+    /// A work space: a clone starts empty.
+    fn clone(&self) -> Self {
+        TouchFlags::default()
+    }
+}
+
+impl std::fmt::Debug for TouchFlags {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "TouchFlags({})", self.0.len())
+    }
 }
 
 impl NeighborList {

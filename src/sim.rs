@@ -320,8 +320,8 @@ impl Simulation {
             self.par.timers.migrate += migrated;
             self.par.timers.comm_s += migrated;
             let t2 = Instant::now();
-            // a large system's list is built on the rank's threads
-            st.nl.threaded = self.set.sweep.grain != usize::MAX && st.p.len() > 2 * crate::forces::MIN_LEN;
+            // the list is built on the rank's threads (a small one, in one block, on this one)
+            st.nl.threaded = self.set.sweep.grain != usize::MAX;
             if st.nl.threaded {
                 let (nl, p, walls) = (&mut st.nl, &st.p, &st.walls);
                 self.pool.install(|| nl.build_with(p, walls, &h));

@@ -681,6 +681,33 @@ fn check_stl(name: &str, bytes: &[u8]) -> Result<(), TalusError> {
     }
 }
 
+/// A UV sphere: `n_lat` bands of `n_lon` segments (2 n_lon (n_lat - 1)
+/// triangles), for the tests and the mesh bench.
+#[doc(hidden)]
+pub fn uv_sphere(center: Vec3, radius: f64, n_lat: usize, n_lon: usize) -> Mesh {
+    let mut v = vec![center + Vec3::z() * radius, center - Vec3::z() * radius];
+    for i in 1..n_lat {
+        let th = std::f64::consts::PI * i as f64 / n_lat as f64;
+        for j in 0..n_lon {
+            let ph = 2.0 * std::f64::consts::PI * j as f64 / n_lon as f64;
+            v.push(center + radius * Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
+        }
+    }
+    let ring = |i: usize, j: usize| (2 + (i - 1) * n_lon + j % n_lon) as u32;
+    let mut t = Vec::new();
+    for j in 0..n_lon {
+        t.push([0, ring(1, j), ring(1, j + 1)]);
+        t.push([1, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)]);
+    }
+    for i in 1..n_lat - 1 {
+        for j in 0..n_lon {
+            t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+            t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+        }
+    }
+    Mesh::new(v, t).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -796,31 +823,6 @@ mod tests {
         assert!(e.contains("header says 2 facets") && e.contains("184 bytes") && e.contains("has 134 bytes"), "{e}");
         bin.extend([0u8; 50]);
         assert!(check_stl("x.stl", &bin).is_ok());
-    }
-
-    /// A UV sphere: `n_lat` bands of `n_lon` segments (2 n_lon (n_lat - 1) triangles).
-    fn uv_sphere(center: Vec3, radius: f64, n_lat: usize, n_lon: usize) -> Mesh {
-        let mut v = vec![center + Vec3::z() * radius, center - Vec3::z() * radius];
-        for i in 1..n_lat {
-            let th = std::f64::consts::PI * i as f64 / n_lat as f64;
-            for j in 0..n_lon {
-                let ph = 2.0 * std::f64::consts::PI * j as f64 / n_lon as f64;
-                v.push(center + radius * Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
-            }
-        }
-        let ring = |i: usize, j: usize| (2 + (i - 1) * n_lon + j % n_lon) as u32;
-        let mut t = Vec::new();
-        for j in 0..n_lon {
-            t.push([0, ring(1, j), ring(1, j + 1)]);
-            t.push([1, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)]);
-        }
-        for i in 1..n_lat - 1 {
-            for j in 0..n_lon {
-                t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-                t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-            }
-        }
-        Mesh::new(v, t).unwrap()
     }
 
     /// Separate triangles of sizes from 1e-3 to 1 times the box (stretched along
