@@ -51,24 +51,27 @@ pub fn run_on(case: Case, opts: &RunOptions, comm: Rc<Comm>) -> Result<RunResult
     Ok(RunResult { summary, sim, interrupted })
 }
 
-/// The observers of a `talus run` into `out`, in the order they run after each
-/// step: analysis, probes, rank log, snapshots, interval checkpoints, progress bar. A
-/// simulation restarted from a checkpoint (step > 0) continues the series
-/// already in `out`: rows and snapshots after the checkpoint's step are
-/// dropped, new ones appended. At step 0 the first probe row and snapshot are
-/// written here.
-fn run_observers(sim: &mut Simulation, out: &Path, progress: bool) -> Result<Vec<Box<dyn Observer>>, TalusError> {
+/// The observers of a run, in the order they run after each step: analysis,
+/// then (writing into `out`) probes, rank log, snapshots, interval
+/// checkpoints, progress bar. A simulation restarted from a checkpoint (step >
+/// 0) continues the series already in `out`: rows and snapshots after the
+/// checkpoint's step are dropped, new ones appended. At step 0 the first probe
+/// row and snapshot are written here. Without `out`, only the analysis (a run
+/// driven from Python that writes no files).
+fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Result<Vec<Box<dyn Observer>>, TalusError> {
     let root = sim.parallel().comm.is_root();
     let resume = (sim.step_count() > 0).then_some(sim.step_count());
     let mut analysis = AnalysisLog;
-    let mut probes = ProbeLog::new(sim.parallel().collective(Probes::create(out, sim, resume))?);
-    let ranks = RankLog::create(out, sim, resume)?;
-    let mut obs: Vec<Box<dyn Observer>> = Vec::new();
     if resume.is_none() {
         analysis.start(sim);
+    }
+    let mut obs: Vec<Box<dyn Observer>> = vec![Box::new(analysis)];
+    let Some(out) = out else { return Ok(obs) };
+    let mut probes = ProbeLog::new(sim.parallel().collective(Probes::create(out, sim, resume))?);
+    let ranks = RankLog::create(out, sim, resume)?;
+    if resume.is_none() {
         probes.write(sim)?;
     }
-    obs.push(Box::new(analysis));
     obs.push(Box::new(probes));
     obs.push(Box::new(ranks));
     if let Some(iv) = sim.case().output.snapshot_interval {
@@ -89,19 +92,166 @@ fn run_observers(sim: &mut Simulation, out: &Path, progress: bool) -> Result<Vec
     Ok(obs)
 }
 
+/// A run in progress: the observers, where the outputs go, the clock. `talus
+/// run` drives one to the end (`run_sim`); the Python module drives one step
+/// by step, with its callbacks between steps. Each step is `end_of_phase`
+/// then `step`.
+pub struct Runner {
+    out: Option<PathBuf>,
+    /// Where a failure checkpoint goes (`out`, or a folder named for a run without one).
+    fail_dir: PathBuf,
+    observers: Vec<Box<dyn Observer>>,
+    start: Instant,
+    first_step: u64,
+}
+
+impl Runner {
+    /// Start a run of `sim` writing into `out` (created; a failure checkpoint
+    /// left there by an earlier run is removed), or writing no files with
+    /// `out` None (then a failure checkpoint goes into `fail_dir`). Computes
+    /// the forces at the current state first.
+    pub fn start(sim: &mut Simulation, out: Option<&Path>, fail_dir: &Path, progress: bool) -> Result<Runner, TalusError> {
+        let root = sim.parallel().comm.is_root();
+        if let Some(out) = out {
+            let prepared = std::fs::create_dir_all(out)
+                .map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))
+                .and_then(|()| if root { remove_stale_failure(out) } else { Ok(()) });
+            sim.parallel().collective(prepared)?;
+        }
+        sim.prepare()?;
+        let observers = run_observers(sim, out, progress)?;
+        Ok(Runner {
+            out: out.map(Path::to_path_buf),
+            fail_dir: out.unwrap_or(fail_dir).to_path_buf(),
+            observers,
+            start: Instant::now(),
+            first_step: sim.step_count(),
+        })
+    }
+
+    /// The output folder, if the run writes files.
+    pub fn out(&self) -> Option<&Path> {
+        self.out.as_deref()
+    }
+
+    /// Whether the current phase is over: if so, the observers mark its end and
+    /// (with an output folder) the phase-end checkpoint is written. Returns
+    /// false once every phase is done.
+    pub fn end_of_phase(&mut self, sim: &mut Simulation) -> Result<bool, TalusError> {
+        let phase = sim.phase();
+        let more = sim.advance_phase()?;
+        if sim.phase() != phase {
+            // a checkpoint at the end of each phase (to restart, say, the discharge on another P)
+            let name = sim.case().phases[phase].name.clone();
+            for o in self.observers.iter_mut() {
+                o.phase_ended(sim, &name)?;
+            }
+            if let Some(out) = &self.out {
+                write_checkpoint(sim, &out.join(format!("checkpoint_after_{name}.bin")))?;
+            }
+        }
+        Ok(more)
+    }
+
+    /// One time step, then every observer. A failure (NaN, a particle leaving
+    /// the domain) writes the failure checkpoint and flushes the outputs first.
+    pub fn step(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
+        let t_prev = sim.time();
+        if let Err(e) = sim.step() {
+            return Err(failed(sim, &self.fail_dir, &mut self.observers, e));
+        }
+        for o in self.observers.iter_mut() {
+            o.after_step(sim, t_prev)?;
+        }
+        Ok(())
+    }
+
+    /// One step of the run: `end_of_phase`, then `step` unless every phase
+    /// was done (then false).
+    pub fn advance(&mut self, sim: &mut Simulation) -> Result<bool, TalusError> {
+        if !self.end_of_phase(sim)? {
+            return Ok(false);
+        }
+        self.step(sim)?;
+        Ok(true)
+    }
+
+    /// The summary so far (the observers' figures and the run's), without
+    /// ending the run or writing anything.
+    pub fn summary(&mut self, sim: &mut Simulation) -> Result<Map<String, Value>, TalusError> {
+        let mut summary = Map::new();
+        AnalysisLog.finish(sim, &mut summary)?;
+        summary.extend(self.figures(sim));
+        Ok(summary)
+    }
+
+    /// End the run: the observers flush and add their figures; with an output
+    /// folder, `checkpoint.bin` and `summary.json` are written. Returns the summary.
+    pub fn finish(&mut self, sim: &mut Simulation) -> Result<Map<String, Value>, TalusError> {
+        let mut summary = Map::new();
+        for o in self.observers.iter_mut() {
+            o.finish(sim, &mut summary)?;
+        }
+        if let Some(out) = &self.out {
+            write_checkpoint(sim, &out.join("checkpoint.bin"))?;
+        }
+        summary.extend(self.figures(sim));
+        if let Some(out) = &self.out {
+            let path = out.join("summary.json");
+            let written = if sim.parallel().comm.is_root() {
+                let text = serde_json::to_string_pretty(&summary).unwrap() + "\n";
+                write_atomic(&path, |w| w.write_all(text.as_bytes()))
+            } else {
+                Ok(())
+            };
+            sim.parallel().collective(written)?;
+        }
+        Ok(summary)
+    }
+
+    /// The run's own figures: counts, times, throughput, the state hash (a collective).
+    fn figures(&self, sim: &Simulation) -> Map<String, Value> {
+        let wall = self.start.elapsed().as_secs_f64();
+        let n = sim.particle_count() as f64;
+        let steps = sim.step_count() - self.first_step;
+        let mut summary = Map::new();
+        summary.insert("case".into(), json!(sim.case().path.display().to_string()));
+        summary.insert("particles".into(), json!(n as u64));
+        summary.insert("ranks".into(), json!(sim.parallel().size()));
+        summary.insert("threads".into(), json!(sim.threads()));
+        summary.insert("grid".into(), json!(sim.parallel().dec.grid()));
+        summary.insert("balance".into(), json!(sim.case().parallel.balance));
+        summary.insert("rebalances".into(), json!(sim.parallel().rebalances));
+        summary.insert("steps".into(), json!(sim.step_count()));
+        summary.insert("steps_this_run".into(), json!(steps));
+        summary.insert("time_s".into(), json!(sim.time()));
+        summary.insert("timestep_s".into(), json!(sim.dt()));
+        summary.insert("rayleigh_time_s".into(), json!(sim.rayleigh_time()));
+        summary.insert("neighbor_builds".into(), json!(sim.state().nl.builds));
+        let tm = &sim.parallel().timers;
+        // this rank's (rank 0's) seconds in each stage of the step, this run
+        summary.insert(
+            "stage_seconds".into(),
+            json!({
+                "forces": tm.forces, "integrate": tm.integrate, "list_build": tm.list_build,
+                "migrate_and_ghosts": tm.migrate, "ghost_refresh": tm.ghost_refresh,
+                "check_and_agree": tm.check, "wall_sums": tm.wall_sums,
+            }),
+        );
+        summary.insert("wall_clock_s".into(), json!(wall));
+        summary.insert("particle_steps_per_s".into(), json!(if wall > 0.0 { n * steps as f64 / wall } else { 0.0 }));
+        summary.insert("state_hash".into(), json!(sim.state_hash()));
+        if let Some(sig) = sim.stop_signal() {
+            summary.insert("stopped_by_signal".into(), json!(crate::signals::name(sig)));
+        }
+        summary
+    }
+}
+
 /// Run an already built simulation; writes outputs and summary.json into `opts.out`
 /// and returns the summary.
 pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
-    let out = &opts.out;
-    let root = sim.parallel().comm.is_root();
-    let prepared = std::fs::create_dir_all(out)
-        .map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))
-        .and_then(|()| if root { remove_stale_failure(out) } else { Ok(()) });
-    sim.parallel().collective(prepared)?;
-    sim.prepare()?;
-    let mut observers = run_observers(sim, out, opts.progress)?;
-    let n = sim.particle_count() as f64;
-    let start = Instant::now();
+    let mut runner = Runner::start(sim, Some(&opts.out), &opts.out, opts.progress)?;
     let first_step = sim.step_count();
     loop {
         // the step limit is checked first, so a checkpoint taken here restarts at
@@ -109,25 +259,8 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
         if opts.max_steps.is_some_and(|m| sim.step_count() - first_step >= m) {
             break;
         }
-        let phase = sim.phase();
-        let more = sim.advance_phase()?;
-        if sim.phase() != phase {
-            // a checkpoint at the end of each phase (to restart, say, the discharge on another P)
-            let name = sim.case().phases[phase].name.clone();
-            for o in observers.iter_mut() {
-                o.phase_ended(sim, &name)?;
-            }
-            write_checkpoint(sim, &out.join(format!("checkpoint_after_{name}.bin")))?;
-        }
-        if !more {
+        if !runner.advance(sim)? {
             break;
-        }
-        let t_prev = sim.time();
-        if let Err(e) = sim.step() {
-            return Err(failed(sim, out, &mut observers, e));
-        }
-        for o in observers.iter_mut() {
-            o.after_step(sim, t_prev)?;
         }
         if sim.stop_signal().is_some() {
             // a signal: every rank agreed on this step; the checkpoint and the
@@ -135,58 +268,15 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
             break;
         }
     }
-    let wall = start.elapsed().as_secs_f64();
     if std::env::var_os("TALUS_PROFILE").is_some() {
         let t = sim.parallel().timers;
         eprintln!(
-            "talus profile rank {}: migrate+ghosts {:.3} s, list builds {:.3} s, ghost refresh {:.3} s, agree {:.3} s, wall sums {:.3} s, compute since the last output row {:.3} s, of {wall:.3} s",
-            sim.parallel().rank(), t.migrate, t.list_build, t.ghost_refresh, t.agree, t.wall_sums, t.compute_s
+            "talus profile rank {}: migrate+ghosts {:.3} s, list builds {:.3} s, ghost refresh {:.3} s, agree {:.3} s, wall sums {:.3} s, compute since the last output row {:.3} s, of {:.3} s",
+            sim.parallel().rank(), t.migrate, t.list_build, t.ghost_refresh, t.agree, t.wall_sums, t.compute_s,
+            runner.start.elapsed().as_secs_f64()
         );
     }
-    let mut summary = Map::new();
-    for o in observers.iter_mut() {
-        o.finish(sim, &mut summary)?;
-    }
-    write_checkpoint(sim, &out.join("checkpoint.bin"))?;
-    let steps = sim.step_count() - first_step;
-    summary.insert("case".into(), json!(sim.case().path.display().to_string()));
-    summary.insert("particles".into(), json!(n as u64));
-    summary.insert("ranks".into(), json!(sim.parallel().size()));
-    summary.insert("threads".into(), json!(sim.threads()));
-    summary.insert("grid".into(), json!(sim.parallel().dec.grid()));
-    summary.insert("balance".into(), json!(sim.case().parallel.balance));
-    summary.insert("rebalances".into(), json!(sim.parallel().rebalances));
-    summary.insert("steps".into(), json!(sim.step_count()));
-    summary.insert("steps_this_run".into(), json!(steps));
-    summary.insert("time_s".into(), json!(sim.time()));
-    summary.insert("timestep_s".into(), json!(sim.dt()));
-    summary.insert("rayleigh_time_s".into(), json!(sim.rayleigh_time()));
-    summary.insert("neighbor_builds".into(), json!(sim.state().nl.builds));
-    let tm = &sim.parallel().timers;
-    // this rank's (rank 0's) seconds in each stage of the step, this run
-    summary.insert(
-        "stage_seconds".into(),
-        json!({
-            "forces": tm.forces, "integrate": tm.integrate, "list_build": tm.list_build,
-            "migrate_and_ghosts": tm.migrate, "ghost_refresh": tm.ghost_refresh,
-            "check_and_agree": tm.check, "wall_sums": tm.wall_sums,
-        }),
-    );
-    summary.insert("wall_clock_s".into(), json!(wall));
-    summary.insert("particle_steps_per_s".into(), json!(if wall > 0.0 { n * steps as f64 / wall } else { 0.0 }));
-    summary.insert("state_hash".into(), json!(sim.state_hash()));
-    if let Some(sig) = sim.stop_signal() {
-        summary.insert("stopped_by_signal".into(), json!(crate::signals::name(sig)));
-    }
-    let path = out.join("summary.json");
-    let written = if root {
-        let text = serde_json::to_string_pretty(&summary).unwrap() + "\n";
-        write_atomic(&path, |w| w.write_all(text.as_bytes()))
-    } else {
-        Ok(())
-    };
-    sim.parallel().collective(written)?;
-    Ok(summary)
+    runner.finish(sim)
 }
 
 /// A step failed (NaN, a particle leaving the domain): every rank gets here at
@@ -194,7 +284,7 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
 /// failure checkpoint together; the series written so far are flushed.
 fn failed(sim: &mut Simulation, out: &Path, observers: &mut [Box<dyn Observer>], e: TalusError) -> TalusError {
     let ck = out.join("failure_checkpoint.bin");
-    let saved = match write_checkpoint(sim, &ck) {
+    let saved = match std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e)).and_then(|()| write_checkpoint(sim, &ck)) {
         Ok(()) => format!("checkpoint of all ranks written to {}", ck.display()),
         Err(w) => format!("no checkpoint: {w}"),
     };
