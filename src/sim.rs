@@ -252,6 +252,92 @@ impl Simulation {
         self.state.walls[i].velocity = v;
     }
 
+    /// Remove wall `i` (as a phase's `remove_walls_at_end` does): it stops
+    /// acting from the next step on; its candidates leave the lists at once.
+    pub fn remove_wall(&mut self, i: usize) {
+        self.state.walls[i].active = false;
+        self.state.nl.x_ref.clear();
+    }
+
+    /// Set one vector (`field`) of the particles with the given global ids,
+    /// all or none: every value finite, a position inside the domain, in 2D no
+    /// component the dimension does not allow (z of a position or velocity, x
+    /// and y of a spin), no member of a clump, every id a particle of this
+    /// rank. With the Gear integrator its predictor takes the new values too.
+    /// A changed position rebuilds the lists at the next step; forces are
+    /// those of the last step until then.
+    pub fn set_particles(&mut self, field: ParticleField, ids: &[u64], values: &[Vec3]) -> Result<(), TalusError> {
+        if ids.len() != values.len() {
+            return Err(TalusError::Input(format!(
+                "{} ids but {} values: one {} a particle",
+                ids.len(),
+                values.len(),
+                field.name()
+            )));
+        }
+        let p = &self.state.p;
+        let index: std::collections::HashMap<u64, usize> = (0..p.owned()).map(|i| (p.id[i], i)).collect();
+        let (dim, dom) = (self.set.dim, &self.set.domain);
+        let mut at = Vec::with_capacity(ids.len());
+        for (&id, v) in ids.iter().zip(values) {
+            let Some(&i) = index.get(&id) else {
+                return Err(TalusError::Input(format!("{} of particle {id}: there is no particle {id}", field.name())));
+            };
+            let bad = |why: &str| TalusError::Input(format!("{} of particle {id} = [{}, {}, {}]: {why}", field.name(), v.x, v.y, v.z));
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(bad("must be finite"));
+            }
+            let allowed = match field {
+                ParticleField::Spin => dim.project_angular(*v),
+                _ => dim.project_linear(*v),
+            };
+            if allowed != *v {
+                return Err(bad("a 2D case allows no z of a position or velocity, no x or y of a spin"));
+            }
+            if field == ParticleField::Position
+                && !(v.x >= dom.lo.x && v.y >= dom.lo.y && v.z >= dom.lo.z && v.x <= dom.hi.x && v.y <= dom.hi.y && v.z <= dom.hi.z)
+            {
+                return Err(bad(&format!(
+                    "outside the domain [{}, {}, {}] to [{}, {}, {}]",
+                    dom.lo.x, dom.lo.y, dom.lo.z, dom.hi.x, dom.hi.y, dom.hi.z
+                )));
+            }
+            if p.clump[i] != 0 {
+                return Err(bad("the particle is a member of a clump, which moves as one rigid body"));
+            }
+            at.push(i);
+        }
+        let gear = self.set.integrator == IntegratorKind::Gear && self.state.gear.initialised;
+        let dt = self.set.dt;
+        let (p, g) = (&mut self.state.p, &mut self.state.gear);
+        for (&i, v) in at.iter().zip(values) {
+            match field {
+                ParticleField::Position => {
+                    p.pos[i] = *v;
+                    if gear {
+                        g.r[0][i] = *v;
+                    }
+                }
+                ParticleField::Velocity => {
+                    p.vel[i] = *v;
+                    if gear {
+                        g.r[1][i] = *v * dt;
+                    }
+                }
+                ParticleField::Spin => {
+                    p.omega[i] = *v;
+                    if gear {
+                        g.w[0][i] = *v;
+                    }
+                }
+            }
+        }
+        if field == ParticleField::Position {
+            self.state.nl.x_ref.clear();
+        }
+        Ok(())
+    }
+
     /// Add a wall (after the case's); lists are rebuilt at the next step.
     pub fn add_wall(&mut self, w: Wall) {
         self.state.walls.push(w);
@@ -596,6 +682,24 @@ impl Simulation {
             }
         }
         format!("{h:016x}")
+    }
+}
+
+/// A per-particle vector that `Simulation::set_particles` changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParticleField {
+    Position,
+    Velocity,
+    Spin,
+}
+
+impl ParticleField {
+    pub fn name(self) -> &'static str {
+        match self {
+            ParticleField::Position => "position",
+            ParticleField::Velocity => "velocity",
+            ParticleField::Spin => "spin",
+        }
     }
 }
 
