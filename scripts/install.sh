@@ -13,6 +13,9 @@ if [ ${#missing[@]} -gt 0 ]; then
   apt-get update -qq
   apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
-python3 -m pip install -q --disable-pip-version-check -r requirements.txt
+pip=(python3 -m pip install -q --disable-pip-version-check --root-user-action=ignore)
+"${pip[@]}" -r requirements.txt
 cargo build --release --quiet
-echo "install.sh: done ($(./target/release/talus --version))"
+# the Python module (python/: pyo3, built by maturin through pip; serial, no MPI)
+"${pip[@]}" ./python
+echo "install.sh: done ($(./target/release/talus --version); Python module talus $(python3 -c 'import talus; print(talus.__version__)'))"

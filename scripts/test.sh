@@ -4,4 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo test --release -- --test-threads=2
 cargo bench --no-run --quiet
+# the Python module, rebuilt from this tree, its tests and examples
+python3 -m pip install -q --disable-pip-version-check --root-user-action=ignore ./python
+python3 -m pytest -q python/tests
 bash scripts/compare_all.sh

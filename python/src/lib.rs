@@ -37,7 +37,12 @@ fn to_py(e: TalusError) -> PyErr {
     match e {
         TalusError::Input(m) => InputError::new_err(m),
         TalusError::Run(m) => RunError::new_err(m),
-        e @ TalusError::Io { .. } => PyOSError::new_err(e.to_string()),
+        // OSError, or the subclass Python raises for that kind of failure
+        TalusError::Io { ref source, .. } => match source.kind() {
+            std::io::ErrorKind::NotFound => pyo3::exceptions::PyFileNotFoundError::new_err(e.to_string()),
+            std::io::ErrorKind::PermissionDenied => pyo3::exceptions::PyPermissionError::new_err(e.to_string()),
+            _ => PyOSError::new_err(e.to_string()),
+        },
     }
 }
 
@@ -138,9 +143,11 @@ impl Simulation {
     }
 
     /// Steps without the GIL towards `goal`, for at most `CHUNK` of wall time
-    /// or until a callback is due. Returns whether the goal was reached.
-    fn chunk(&mut self, goal: Goal, due: &[u64]) -> Result<bool, TalusError> {
+    /// or until a callback is due. Returns whether the goal was reached and
+    /// whether any step was made.
+    fn chunk(&mut self, goal: Goal, due: &[u64]) -> Result<(bool, bool), TalusError> {
         let start = Instant::now();
+        let first = self.sim.step_count();
         self.ensure_runner()?;
         let (runner, sim) = (self.runner.as_mut().expect("a runner"), &mut self.sim);
         let reached = |sim: &talus::sim::Simulation| match goal {
@@ -150,20 +157,21 @@ impl Simulation {
             Goal::PhaseEnd(_) | Goal::End => false,
         };
         loop {
+            let stepped = sim.step_count() > first;
             if reached(sim) {
-                return Ok(true);
+                return Ok((true, stepped));
             }
             // each step as in `talus run`: the phase's end first, then the step
             let more = runner.end_of_phase(sim)?;
             match goal {
-                Goal::PhaseEnd(p) if sim.phase() != p || !more => return Ok(true),
-                Goal::End if !more => return Ok(true),
+                Goal::PhaseEnd(p) if sim.phase() != p || !more => return Ok((true, stepped)),
+                Goal::End if !more => return Ok((true, stepped)),
                 _ => {}
             }
             runner.step(sim)?;
             let s = sim.step_count();
             if due.iter().any(|&n| s % n == 0) || start.elapsed() >= CHUNK {
-                return Ok(reached(sim));
+                return Ok((reached(sim), true));
             }
         }
     }
@@ -172,7 +180,7 @@ impl Simulation {
     fn drive(slf: &Bound<'_, Self>, goal: Goal) -> PyResult<()> {
         let py = slf.py();
         loop {
-            let reached = {
+            let (reached, stepped) = {
                 let mut guard = slf.try_borrow_mut()?;
                 let me: &mut Simulation = &mut guard;
                 let due: Vec<u64> = me.callbacks.iter().map(|c| c.0).collect();
@@ -185,12 +193,12 @@ impl Simulation {
             };
             py.check_signals()?;
             // callbacks due at this step, in the order they were added
-            let (step, calls): (u64, Vec<Py<PyAny>>) = {
+            let calls: Vec<Py<PyAny>> = {
                 let me = slf.try_borrow()?;
                 let s = me.sim.step_count();
-                (s, me.callbacks.iter().filter(|c| s % c.0 == 0).map(|c| c.1.clone_ref(py)).collect())
+                me.callbacks.iter().filter(|c| s % c.0 == 0).map(|c| c.1.clone_ref(py)).collect()
             };
-            if step > 0 {
+            if stepped {
                 for f in calls {
                     f.call1(py, (slf,))?;
                 }
