@@ -359,3 +359,40 @@ def test_example_h1_small_hopper(tmp_path):
     d = np.loadtxt(tmp_path / "discharge.csv", delimiter=",", skiprows=1)
     assert abs(d[-1, 1] - s["discharged_mass_kg"]) < 0.01 * s["total_mass_kg"]
     assert "discharge rate" in out
+
+
+def test_stepping_releases_the_gil():
+    sim = talus.Simulation.from_file(CASES / "H1-small.toml", threads=1, overrides=["particles.lattice.count=2000"])
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.002)
+
+    th = threading.Thread(target=tick)
+    th.start()
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < 1.5:
+        sim.step(500)
+    t1 = time.perf_counter()
+    stop.set()
+    th.join()
+    during = [t0] + [t for t in ticks if t0 < t < t1] + [t1]
+    # the other thread ran all along (holding the GIL, it could not have)
+    assert len(during) > 50, len(during)
+    assert max(b - a for a, b in zip(during, during[1:])) < 0.5
+
+
+def test_drag_from_python_is_talus_drag(tmp_path):
+    case = tmp_path / "c1-one-bed.toml"
+    case.write_text((CASES / "drag" / "c1.toml").read_text().replace('id = "c1"', 'id = "c1-one-bed"\nseeds = [1]'))
+    s = talus.drag(case, out=tmp_path / "py")
+    subprocess.run([str(TALUS), "drag", str(case), "--out", str(tmp_path / "cli")], check=True, capture_output=True)
+    ref = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert s["beds"] == 1 and s["mean_drag_n"] == ref["mean_drag_n"] > 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text(case.read_text().replace("granule_size = 1.092e-3", "granule_size = -1.0"))
+    with pytest.raises(talus.InputError, match="granule_size"):
+        talus.drag(bad, out=tmp_path / "bad")
