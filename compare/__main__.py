@@ -3,6 +3,8 @@
 SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper, or `throughput TARGET` with
 TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense settled
 bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
+`python -m compare regress CASE.toml --golden FILE`: talus against its golden file
+(compare/regress.py); `python -m compare window`: the H1-paper discharge window.
 Runs the engines, computes every figure from their raw time series by one piece of
 code, prints them side by side, writes report.md, figures.json and PNG plots into
 DIR, and exits 1 when a figure is outside its tolerance (tolerances.py).
@@ -101,6 +103,9 @@ def main(argv=None):
     if argv[:1] == ["window"]:  # H1-paper discharge window, its own options: compare/window.py
         from . import window
         return window.main(argv[1:])
+    if argv[:1] == ["regress"]:  # talus against its golden file: compare/regress.py
+        from . import regress
+        return regress.main(argv[1:])
 
     ap = argparse.ArgumentParser(prog="python -m compare", description=__doc__.splitlines()[0])
     ap.add_argument("setup", choices=SC_SETUPS + H1_SETUPS + ["throughput"])

@@ -71,6 +71,7 @@ pub struct CaseBuilder {
     output: OutputSection,
     analysis: Option<AnalysisSection>,
     parallel: ParallelSection,
+    compare: crate::case::CompareSection,
 }
 
 impl CaseBuilder {
@@ -96,12 +97,13 @@ impl CaseBuilder {
             output: OutputSection::default(),
             analysis: None,
             parallel: ParallelSection::default(),
+            compare: Default::default(),
         }
     }
 
     /// Start from an existing case (e.g. one loaded from `cases/*.toml`) to change it.
     pub fn from_case(case: Case) -> CaseBuilder {
-        let Case { simulation: s, contact, materials, particles: p, walls, phases, output, analysis, parallel, .. } = case;
+        let Case { simulation: s, contact, materials, particles: p, walls, phases, output, analysis, parallel, compare, .. } = case;
         CaseBuilder {
             dimension: s.dimension,
             timestep: Some(s.timestep),
@@ -122,6 +124,7 @@ impl CaseBuilder {
             output,
             analysis,
             parallel,
+            compare,
         }
     }
 
@@ -251,6 +254,12 @@ impl CaseBuilder {
         self
     }
 
+    /// `[compare]`: the comparisons' tolerances.
+    pub fn compare(mut self, compare: crate::case::CompareSection) -> Self {
+        self.compare = compare;
+        self
+    }
+
     /// `[analysis]`; `None` removes it.
     pub fn analysis(mut self, analysis: Option<AnalysisSection>) -> Self {
         self.analysis = analysis;
@@ -298,6 +307,7 @@ impl CaseBuilder {
             output: self.output,
             analysis: self.analysis,
             parallel: self.parallel,
+            compare: self.compare,
             dir: Default::default(),
             path: Default::default(),
         };

@@ -31,6 +31,9 @@ pub struct Case {
     pub analysis: Option<AnalysisSection>,
     #[serde(default)]
     pub parallel: ParallelSection,
+    /// Tolerances of the comparisons (`python -m compare CASE.toml`, `compare regress`).
+    #[serde(default, skip_serializing_if = "CompareSection::is_default")]
+    pub compare: CompareSection,
     /// Folder of the case file; relative paths in the case are taken from here.
     #[serde(skip)]
     pub dir: PathBuf,
@@ -522,6 +525,71 @@ fn default_interval() -> f64 {
     0.01
 }
 
+/// `[compare]`: tolerances of `python -m compare CASE.toml` (talus against the
+/// reference codes) and of `python -m compare regress` (talus against its
+/// golden file). The engine does not read them. Every tolerance is relative:
+/// a figure's to its reference value, a probe column's to the column's range
+/// over the run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CompareSection {
+    /// Every summary figure (default 0.02).
+    #[serde(default = "default_figure_rel")]
+    pub figure_rel: f64,
+    /// Per figure, in place of `figure_rel` (`{ discharge_rate_kg_s = 0.1 }`).
+    #[serde(default)]
+    pub figures: std::collections::BTreeMap<String, f64>,
+    /// Largest deviation of a probe column over the run, as a fraction of the
+    /// column's range (default 0.05).
+    #[serde(default = "default_series_range")]
+    pub series_range: f64,
+    /// Per probe column, in place of `series_range`.
+    #[serde(default)]
+    pub series: std::collections::BTreeMap<String, f64>,
+    /// Windows `[t0, t1]` (s) over which each probe column's mean is compared.
+    #[serde(default)]
+    pub windows: Vec<[f64; 2]>,
+    /// Difference of a column's means over a window, as a fraction of its range (default 0.02).
+    #[serde(default = "default_window_mean")]
+    pub window_mean: f64,
+    /// Figures and probe columns left out of the comparison.
+    #[serde(default)]
+    pub ignore: Vec<String>,
+    /// Steps of a `compare regress` run (default: the whole case).
+    pub regress_steps: Option<u64>,
+}
+
+fn default_figure_rel() -> f64 {
+    0.02
+}
+fn default_series_range() -> f64 {
+    0.05
+}
+fn default_window_mean() -> f64 {
+    0.02
+}
+
+impl Default for CompareSection {
+    fn default() -> Self {
+        CompareSection {
+            figure_rel: default_figure_rel(),
+            figures: Default::default(),
+            series_range: default_series_range(),
+            series: Default::default(),
+            windows: Vec::new(),
+            window_mean: default_window_mean(),
+            ignore: Vec::new(),
+            regress_steps: None,
+        }
+    }
+}
+
+impl CompareSection {
+    pub fn is_default(&self) -> bool {
+        *self == CompareSection::default()
+    }
+}
+
 /// What figures the run computes for `summary.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "lowercase")]
@@ -642,7 +710,33 @@ impl Case {
             self.validate_wall(w)?;
         }
         self.validate_phases()?;
-        self.validate_output()
+        self.validate_output()?;
+        self.validate_compare()
+    }
+
+    fn validate_compare(&self) -> Result<(), TalusError> {
+        let c = &self.compare;
+        let tol = |key: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(self.err(key, v, "a tolerance must be a finite number, 0 or more")) }
+        };
+        tol("compare.figure_rel", c.figure_rel)?;
+        tol("compare.series_range", c.series_range)?;
+        tol("compare.window_mean", c.window_mean)?;
+        for (k, v) in &c.figures {
+            tol(&format!("compare.figures.{k}"), *v)?;
+        }
+        for (k, v) in &c.series {
+            tol(&format!("compare.series.{k}"), *v)?;
+        }
+        for (i, w) in c.windows.iter().enumerate() {
+            if !(w[0].is_finite() && w[1].is_finite() && w[0] >= 0.0 && w[0] < w[1]) {
+                return Err(self.err(&format!("compare.windows[{i}]"), format!("[{}, {}]", w[0], w[1]), "a window is [t0, t1] (s) with 0 <= t0 < t1"));
+            }
+        }
+        if c.regress_steps == Some(0) {
+            return Err(self.err("compare.regress_steps", 0, "must be 1 or more (leave it out for the whole case)"));
+        }
+        Ok(())
     }
 
     /// A name that becomes part of a file name or a CSV column (walls, phases).

@@ -53,6 +53,7 @@ fn codec() -> impl Options {
 pub fn case_hash(sim: &Simulation) -> u64 {
     let mut case = sim.case().clone();
     case.parallel = Default::default();
+    case.compare = Default::default();
     let text = toml::to_string(&case).unwrap_or_default();
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
