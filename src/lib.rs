@@ -12,6 +12,7 @@ pub mod dim;
 pub mod drag;
 pub mod durable;
 pub mod error;
+pub mod export;
 pub mod fixed;
 pub mod forces;
 pub mod generate;

@@ -55,6 +55,17 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Write a case as an input for a reference code (LIGGGHTS 3.8), with its particle and mesh files,
+    /// writing the same probes as talus's probes.csv; what the code cannot run is refused naming the key.
+    Export {
+        case: PathBuf,
+        /// The reference code: liggghts (yade: not yet).
+        #[arg(long)]
+        to: String,
+        /// Output folder (default: out/export/<case name>-<code>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
     /// Write a case's initial particles as CSV (id,x,y,z,radius,vx,vy,vz), for the other engines;
@@ -166,6 +177,21 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             for (k, v) in &s {
                 println!("  {k:<24} {v}");
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Cmd::Export { case, to, out } => {
+            let target = talus::export::Target::parse(&to)?;
+            let c = Case::load(&case)?;
+            let stem = case.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+            let out = out.unwrap_or_else(|| PathBuf::from("out").join("export").join(format!("{stem}-{to}")));
+            let e = talus::export::export(&c, target, &out)?;
+            for f in &e.files {
+                println!("wrote {}", f.display());
+            }
+            for n in &e.notes {
+                println!("note: {n}");
+            }
+            println!("run: {}", e.command);
             Ok(ExitCode::SUCCESS)
         }
         Cmd::Meshes { dir } => {

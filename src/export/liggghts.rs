@@ -1,0 +1,525 @@
+//! A case as a LIGGGHTS 3.8 deck (`in.talus`), with its particle data file
+//! and meshes, writing `probes.csv` with talus's columns.
+//!
+//! The deck is in LIGGGHTS's conventions (talus with `contact.convention =
+//! "liggghts"` runs the same equations): Hertz (`model hertz`) or Hooke
+//! (`hooke` derived at a characteristic velocity, or `hooke/stiffness` with
+//! absolute coefficients), `tangential history`, pair restitution and friction
+//! the mean of the two materials'. How it is laid out:
+//!
+//! - particles: `particles.data` (atom type = material index + 1, diameter,
+//!   density; velocities and spins), the very particles talus starts from;
+//! - walls: an STL mesh, or a plane that moves or is not normal to x, y or z
+//!   (written as a square mesh covering the domain), is a `mesh/surface/stress`
+//!   in one `wall/gran` fix, moving by `move/mesh linear`; a still plane normal
+//!   to an axis is a `primitive` wall in a fix of its own (`store_force` gives
+//!   its load), so it can be removed alone;
+//! - probes: one `fix print` for the whole run, every round(interval / dt)
+//!   steps, from step 0; the phase name is a string variable, a removed wall's
+//!   columns variables set to 0;
+//! - phases: runs of their whole length; one that ends on kinetic energy runs
+//!   in chunks up to each multiple of 20 steps (talus's test steps) and tests
+//!   KE < fraction x (PE0 - PE) between chunks, then runs its settle time.
+//!   Chunks are `run N pre no post no` (no set-up between them: LIGGGHTS's
+//!   set-up recomputes forces without updating the shear history). A wall
+//!   removal needs a set-up once (the next run is `pre yes`); removing a mesh
+//!   wall re-creates the mesh fix, so the contacts with the other meshes start
+//!   again without history.
+
+use super::{phase_steps, refuse, removal_step, Exported};
+use crate::case::{Case, ModelName, WallShape};
+use crate::contact::conventions::resolve;
+use crate::contact::hertz::HertzDamping;
+use crate::contact::{Convention, EndOfContact, FrictionCap, ShearKinematics, TangentialHistory};
+use crate::dim::{Dimension, Vec3};
+use crate::error::TalusError;
+use crate::integrate::IntegratorKind;
+use crate::material::{mix, Mixing};
+use crate::sim::Simulation;
+use crate::walls::mesh::Mesh;
+use crate::walls::Shape;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// How a wall is written.
+#[derive(Clone, Debug)]
+enum Kind {
+    /// `mesh/surface/stress` in the shared `wall/gran` fix.
+    Mesh,
+    /// A `primitive` plane in a fix of its own: axis (0 x, 1 y, 2 z) and offset.
+    Primitive { axis: usize, at: f64 },
+}
+
+struct W {
+    name: String,
+    kind: Kind,
+    atom_type: usize,
+    velocity: Vec3,
+}
+
+fn g(x: f64) -> String {
+    // 17 significant digits: every f64 reaches LIGGGHTS as it is
+    format!("{x:.16e}")
+}
+
+fn io(path: &Path, e: std::io::Error) -> TalusError {
+    TalusError::io(format!("writing {}", path.display()), e)
+}
+
+/// Refuse what LIGGGHTS 3.8 cannot run, naming the key.
+fn check(case: &Case) -> Result<(), TalusError> {
+    let s = &case.simulation;
+    if s.dimension == Dimension::Two {
+        return Err(refuse(case, "simulation.dimension = 2", "the LIGGGHTS exporter writes 3D decks only so far (LIGGGHTS `dimension 2` is not exported yet)"));
+    }
+    if s.integrator == IntegratorKind::Gear {
+        return Err(refuse(case, "simulation.integrator = \"gear\"", "LIGGGHTS 3.8 integrates spheres with velocity Verlet (nve/sphere) only"));
+    }
+    if !case.particles.ellipses.is_empty() {
+        return Err(refuse(case, "particles.ellipses", "LIGGGHTS 3.8 has no ellipse particles"));
+    }
+    if !case.particles.clumps.is_empty() {
+        return Err(refuse(case, "particles.clumps", "the LIGGGHTS exporter writes no clumps (multisphere is not in LIGGGHTS-PUBLIC 3.8)"));
+    }
+    let c = &case.contact;
+    if c.damping == Some(HertzDamping::Yade) {
+        return Err(refuse(case, "contact.damping = \"yade\"", "LIGGGHTS maps restitution to damping its own way (gamma_n = 2 sqrt(5/6) beta sqrt(S_n m*))"));
+    }
+    if c.tangential == Some(TangentialHistory::Incremental) {
+        return Err(refuse(case, "contact.tangential = \"incremental\"", "LIGGGHTS `tangential history` keeps the total shear displacement"));
+    }
+    if c.shear_kinematics == Some(ShearKinematics::FullRadii) {
+        return Err(refuse(case, "contact.shear_kinematics = \"full_radii\"", "LIGGGHTS drives the shear spring by the contact point's velocity"));
+    }
+    if c.friction_cap == Some(FrictionCap::Elastic) {
+        return Err(refuse(case, "contact.friction_cap = \"elastic\"", "LIGGGHTS caps friction with the total normal force"));
+    }
+    if c.wall_contact_point == Some(crate::case::WallContactPoint::Surface) {
+        return Err(refuse(case, "contact.wall_contact_point = \"surface\"", "LIGGGHTS acts at the middle of a wall overlap"));
+    }
+    for (i, w) in case.walls.iter().enumerate() {
+        match &w.shape {
+            WallShape::Disc(_) => {
+                return Err(refuse(case, &format!("wall[{i}].disc ({})", w.name), "LIGGGHTS 3.8 has no ball wall; give the ball as an STL mesh"));
+            }
+            WallShape::Segment(_) | WallShape::Box(_) => {
+                return Err(refuse(case, &format!("wall[{i}].{} ({})", w.shape.key(), w.name), "2D walls are not exported to LIGGGHTS yet"));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// A square of side `size` through `point`, normal `n`, as a two-triangle mesh.
+fn square(point: Vec3, n: Vec3, size: f64) -> Mesh {
+    let a = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+    let u = n.cross(&a).normalize() * (0.5 * size);
+    let v = n.cross(&u);
+    let c = [point - u - v, point + u - v, point + u + v, point - u + v];
+    Mesh::new(c.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).expect("a square is a valid mesh")
+}
+
+pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
+    check(case)?;
+    let sim = Simulation::new(case.clone())?;
+    let dt = sim.dt();
+    let skin = sim.state().nl.skin;
+    let mut notes = Vec::new();
+    if case.contact.convention != Convention::Liggghts {
+        notes.push(format!(
+            "the deck runs in LIGGGHTS's conventions; compare it with talus run with `--set contact.convention=liggghts` (the case says {:?})",
+            case.contact.convention
+        ));
+    }
+    let opts = {
+        let mut c = case.contact.clone();
+        c.convention = Convention::Liggghts;
+        resolve(&c)
+    };
+    let nmat = case.materials.len();
+
+    // particles: the data file
+    let p = sim.particles();
+    let mut idx: Vec<usize> = (0..p.owned()).collect();
+    idx.sort_unstable_by_key(|&i| p.id[i]);
+    let shift = if idx.first().is_some_and(|&i| p.id[i] == 0) { 1 } else { 0 };
+    if shift == 1 {
+        notes.push("talus ids start at 0: LIGGGHTS ids are talus ids + 1 (probe columns keep talus's ids)".into());
+    }
+    let d = &case.simulation.domain;
+    let mut data = String::new();
+    let _ = writeln!(data, "LIGGGHTS data file: the initial particles of {} (exported by talus)\n", case.path.display());
+    let _ = writeln!(data, "{} atoms\n{} atom types\n", idx.len(), nmat);
+    for k in 0..3 {
+        let _ = writeln!(data, "{} {} {}lo {}hi", g(d.lo[k]), g(d.hi[k]), ["x", "y", "z"][k], ["x", "y", "z"][k]);
+    }
+    data.push_str("\nAtoms\n\n");
+    for &i in &idx {
+        let rho = case.materials[p.material[i] as usize].density;
+        let x = p.pos[i];
+        let _ = writeln!(data, "{} {} {} {} {} {} {}", p.id[i] + shift, p.material[i] + 1, g(2.0 * p.radius[i]), g(rho), g(x.x), g(x.y), g(x.z));
+    }
+    data.push_str("\nVelocities\n\n");
+    for &i in &idx {
+        let (v, w) = (p.vel[i], p.omega[i]);
+        let _ = writeln!(data, "{} {} {} {} {} {} {}", p.id[i] + shift, g(v.x), g(v.y), g(v.z), g(w.x), g(w.y), g(w.z));
+    }
+    let data_path = out.join("particles.data");
+    std::fs::write(&data_path, data).map_err(|e| io(&data_path, e))?;
+    let mut files = vec![out.join("in.talus"), data_path];
+
+    // walls
+    let size = 4.0 * (Vec3::from(d.hi) - Vec3::from(d.lo)).norm();
+    let mut walls = Vec::new();
+    for (ws, w) in case.walls.iter().zip(sim.walls()) {
+        let velocity = Vec3::from(ws.velocity);
+        let atom_type = case.material_index(&ws.material, "wall.material")? as usize + 1;
+        let kind = match &w.shape {
+            Shape::Plane(pl) => {
+                let n = pl.normal;
+                let axis = (0..3).find(|&k| (n[k].abs() - 1.0).abs() < 1e-15 && (0..3).all(|j| j == k || n[j] == 0.0));
+                match axis {
+                    Some(axis) if velocity == Vec3::zeros() => Kind::Primitive { axis, at: pl.point[axis] },
+                    _ => {
+                        let m = square(pl.point, n, size);
+                        let f = out.join("meshes").join(format!("{}.stl", ws.name));
+                        std::fs::create_dir_all(out.join("meshes")).map_err(|e| io(&f, e))?;
+                        m.write_stl(&f).map_err(|e| io(&f, e))?;
+                        files.push(f);
+                        notes.push(format!("wall {}: the plane is a square mesh of side {size:.3} m (LIGGGHTS's primitive planes stand still and are normal to an axis)", ws.name));
+                        Kind::Mesh
+                    }
+                }
+            }
+            Shape::Mesh(m) => {
+                let f = out.join("meshes").join(format!("{}.stl", ws.name));
+                std::fs::create_dir_all(out.join("meshes")).map_err(|e| io(&f, e))?;
+                m.write_stl(&f).map_err(|e| io(&f, e))?;
+                files.push(f);
+                Kind::Mesh
+            }
+            _ => unreachable!("refused above"),
+        };
+        walls.push(W { name: ws.name.clone(), kind, atom_type, velocity });
+    }
+
+    // the contact model words, shared by the pair style and the wall fixes
+    let (model, settings) = match case.contact.model {
+        ModelName::Hertz => ("model hertz tangential history", String::new()),
+        ModelName::Hooke => match case.contact.stiffness {
+            Some(_) => ("model hooke/stiffness tangential history", "absolute_damping on".to_string()),
+            None => ("model hooke tangential history", String::new()),
+        },
+    };
+    let settings = if opts.end == EndOfContact::Clip { format!("{settings} limitForce on").trim().to_string() } else { settings };
+
+    let mut s = String::new();
+    let w = &mut s;
+    let _ = writeln!(w, "# {} exported by talus {} for LIGGGHTS 3.8.0.", case.path.display(), env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(w, "# Run it in this folder:  liggghts -in in.talus -log log.liggghts");
+    let _ = writeln!(w, "# It writes probes.csv with the columns of talus's probes.csv.");
+    for n in &notes {
+        let _ = writeln!(w, "# Note: {n}");
+    }
+    let header_notes = notes.len();
+    let _ = writeln!(w, "\nunits           si\natom_style      granular\natom_modify     map array\nboundary        f f f\nnewton          off\ncommunicate     single vel yes");
+    let _ = writeln!(w, "soft_particles  yes                      # softer materials than LIGGGHTS's floor are allowed");
+    let _ = writeln!(w, "read_data       particles.data");
+    let _ = writeln!(w, "neighbor        {} bin\nneigh_modify    delay 0 every 1 check yes", g(skin));
+
+    // materials: one atom type each; pairs as talus mixes them in LIGGGHTS's convention
+    let list = |f: &dyn Fn(usize) -> f64| (0..nmat).map(|k| g(f(k))).collect::<Vec<_>>().join(" ");
+    let _ = writeln!(w, "\n# materials: {}", case.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", "));
+    let _ = writeln!(w, "fix m1 all property/global youngsModulus peratomtype {}", list(&|k| case.materials[k].youngs_modulus));
+    let _ = writeln!(w, "fix m2 all property/global poissonsRatio peratomtype {}", list(&|k| case.materials[k].poisson_ratio));
+    let pair = |f: &dyn Fn(usize, usize) -> f64| {
+        let mut v = Vec::new();
+        for a in 0..nmat {
+            for b in 0..nmat {
+                v.push(g(f(a, b)));
+            }
+        }
+        v.join(" ")
+    };
+    let mixed = |a: usize, b: usize| mix(&case.materials[a], &case.materials[b], Mixing::Liggghts);
+    let _ = writeln!(w, "fix m3 all property/global coefficientRestitution peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).restitution));
+    let _ = writeln!(w, "fix m4 all property/global coefficientFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).friction));
+    match (case.contact.model, case.contact.stiffness) {
+        (ModelName::Hooke, Some(k)) => {
+            let _ = writeln!(w, "fix k1 all property/global kn peratomtypepair {nmat} {}", pair(&|_, _| k.kn));
+            let _ = writeln!(w, "fix k2 all property/global kt peratomtypepair {nmat} {}", pair(&|_, _| k.kt));
+            let _ = writeln!(w, "fix k3 all property/global gamman_abs peratomtypepair {nmat} {}", pair(&|_, _| k.gamma_n));
+            let _ = writeln!(w, "fix k4 all property/global gammat_abs peratomtypepair {nmat} {}", pair(&|_, _| k.gamma_t));
+        }
+        (ModelName::Hooke, None) => {
+            let v = case.contact.characteristic_velocity.unwrap_or(1.0);
+            let _ = writeln!(w, "fix m5 all property/global characteristicVelocity scalar {}", g(v));
+        }
+        _ => {}
+    }
+    let _ = writeln!(w, "pair_style      gran {model} {settings}\npair_coeff      * *\ntimestep        {}", g(dt));
+    let gv = Vec3::from(case.simulation.gravity);
+    if gv.norm() > 0.0 {
+        let u = gv / gv.norm();
+        let _ = writeln!(w, "fix gravi all gravity {} vector {} {} {}", g(gv.norm()), g(u.x), g(u.y), g(u.z));
+    }
+
+    // walls
+    let meshes: Vec<&W> = walls.iter().filter(|x| matches!(x.kind, Kind::Mesh)).collect();
+    let _ = writeln!(w, "\n# ---- walls (f_NAME[1..3]: force of the particles on a mesh, [4..6] torque about the origin)");
+    for m in &meshes {
+        let _ = writeln!(w, "fix {0} all mesh/surface/stress file meshes/{0}.stl type {1}", m.name, m.atom_type);
+        if m.velocity != Vec3::zeros() {
+            let _ = writeln!(w, "fix {0}_move all move/mesh mesh {0} linear {1} {2} {3}", m.name, g(m.velocity.x), g(m.velocity.y), g(m.velocity.z));
+        }
+    }
+    let mesh_fix = |w: &mut String, names: &[&str]| {
+        if !names.is_empty() {
+            let _ = writeln!(w, "fix meshes all wall/gran {model} mesh n_meshes {} meshes {} {settings}", names.len(), names.join(" "));
+            let _ = writeln!(w, "compute wgl all wall/gran/local id\ncompute wgl_sum all reduce sum c_wgl[3]\ncompute wgl_ave all reduce ave c_wgl[3]");
+            let _ = writeln!(w, "variable n_mesh equal floor(c_wgl_sum/(c_wgl_ave+(c_wgl_ave==0))+0.5)");
+        } else {
+            let _ = writeln!(w, "variable n_mesh equal 0");
+        }
+    };
+    let mut live: Vec<bool> = vec![true; walls.len()];
+    let mesh_names = |live: &[bool]| -> Vec<&str> {
+        walls.iter().zip(live).filter(|(x, l)| **l && matches!(x.kind, Kind::Mesh)).map(|(x, _)| x.name.as_str()).collect()
+    };
+    mesh_fix(w, &mesh_names(&live));
+    for x in &walls {
+        if let Kind::Primitive { axis, at } = x.kind {
+            let plane = ["xplane", "yplane", "zplane"][axis];
+            let _ = writeln!(w, "fix {} all wall/gran {model} primitive type {} {plane} {} store_force yes {settings}", x.name, x.atom_type, g(at));
+        }
+    }
+    let _ = writeln!(w, "fix integr all nve/sphere");
+
+    // probes
+    let _ = writeln!(w, "\n# ---- probes: the columns of talus's probes.csv");
+    let _ = writeln!(w, "variable t equal step*{}\nvariable st equal step", g(dt));
+    let _ = writeln!(w, "compute ke_t all ke\ncompute ke_r all erotate/sphere\nvariable ke equal c_ke_t+c_ke_r");
+    let _ = writeln!(w, "variable pe_atom atom -mass*({}*x+{}*y+{}*z)\ncompute pe_sum all reduce sum v_pe_atom\nvariable pe equal c_pe_sum", g(gv.x), g(gv.y), g(gv.z));
+    let _ = writeln!(w, "compute radius all property/atom radius");
+    let _ = writeln!(w, "compute pc all contact/atom\ncompute pc_sum all reduce sum c_pc\nvariable n_pair equal floor(c_pc_sum/2+0.5)");
+    let wall_vars = |w: &mut String, x: &W, on: bool| {
+        let n = &x.name;
+        if !on {
+            for q in ["fx", "fy", "fz", "tx", "ty", "tz"] {
+                let _ = writeln!(w, "variable {n}_{q} equal 0");
+            }
+            let _ = writeln!(w, "variable {n}_n equal 0");
+            return;
+        }
+        match x.kind {
+            Kind::Mesh => {
+                for (k, q) in ["fx", "fy", "fz", "tx", "ty", "tz"].iter().enumerate() {
+                    let _ = writeln!(w, "variable {n}_{q} equal f_{n}[{}]", k + 1);
+                }
+            }
+            Kind::Primitive { axis, at } => {
+                // force of the particles on the plane = - sum of its force on them; torque
+                // about the origin at the contact point, the middle of the overlap on the
+                // normal through the centre (as talus in LIGGGHTS's convention)
+                let mut c = ["x".to_string(), "y".to_string(), "z".to_string()];
+                let (q, a) = (["x", "y", "z"][axis], g(at));
+                c[axis] = format!("({a}-({q}-{a})/abs({q}-{a})*(c_radius-abs({q}-{a}))/2)");
+                let f = |k: usize| format!("f_force_{n}[{}]", k + 1);
+                let _ = writeln!(w, "variable {n}_on atom ({}!=0)||({}!=0)||({}!=0)", f(0), f(1), f(2));
+                let _ = writeln!(w, "variable {n}_tx_atom atom -({}*{}-{}*{})", c[1], f(2), c[2], f(1));
+                let _ = writeln!(w, "variable {n}_ty_atom atom -({}*{}-{}*{})", c[2], f(0), c[0], f(2));
+                let _ = writeln!(w, "variable {n}_tz_atom atom -({}*{}-{}*{})", c[0], f(1), c[1], f(0));
+                let _ = writeln!(w, "compute {n}_sum all reduce sum {} {} {} v_{n}_on v_{n}_tx_atom v_{n}_ty_atom v_{n}_tz_atom", f(0), f(1), f(2));
+                for (k, q) in ["fx", "fy", "fz"].iter().enumerate() {
+                    let _ = writeln!(w, "variable {n}_{q} equal 0-c_{n}_sum[{}]", k + 1);
+                }
+                for (k, q) in ["tx", "ty", "tz"].iter().enumerate() {
+                    let _ = writeln!(w, "variable {n}_{q} equal c_{n}_sum[{}]", k + 5);
+                }
+                let _ = writeln!(w, "variable {n}_n equal floor(c_{n}_sum[4]+0.5)");
+            }
+        }
+    };
+    let contacts = |w: &mut String, live: &[bool]| {
+        let mut terms = vec!["v_n_pair".to_string(), "v_n_mesh".to_string()];
+        for (x, l) in walls.iter().zip(live) {
+            if *l && matches!(x.kind, Kind::Primitive { .. }) {
+                terms.push(format!("v_{}_n", x.name));
+            }
+        }
+        let _ = writeln!(w, "variable contacts equal {}", terms.join("+"));
+    };
+    for x in &walls {
+        wall_vars(w, x, true);
+    }
+    contacts(w, &live);
+    let mut header = String::from("time_s,step,phase,kinetic_energy_j,contacts");
+    let mut row = String::from("${t},${st},${phase},${ke},${contacts}");
+    let mut thermo = String::from("step v_t v_ke v_pe v_contacts");
+    for x in &walls {
+        for c in ["x", "y", "z"] {
+            let _ = write!(header, ",{}_force_{c}_n", x.name);
+            let _ = write!(row, ",${{{}_f{c}}}", x.name);
+            let _ = write!(thermo, " v_{}_f{c}", x.name);
+        }
+        for c in ["x", "y", "z"] {
+            let _ = write!(header, ",{}_torque_{c}_n_m", x.name);
+            let _ = write!(row, ",${{{}_t{c}}}", x.name);
+            let _ = write!(thermo, " v_{}_t{c}", x.name);
+        }
+    }
+    if let Some(z) = case.output.mass_below_z {
+        let _ = writeln!(w, "variable mb_atom atom mass*(z<{})\ncompute mb_sum all reduce sum v_mb_atom\nvariable mb equal c_mb_sum", g(z));
+        header.push_str(",mass_below_kg");
+        row.push_str(",${mb}");
+        thermo.push_str(" v_mb");
+    }
+    for &id in &case.output.track {
+        let l = id + shift;
+        for (q, v) in [
+            ("x_m", "x"), ("y_m", "y"), ("z_m", "z"), ("vx_m_s", "vx"), ("vy_m_s", "vy"), ("vz_m_s", "vz"),
+            ("wx_rad_s", "omegax"), ("wy_rad_s", "omegay"), ("wz_rad_s", "omegaz"), ("fx_n", "fx"), ("fy_n", "fy"), ("fz_n", "fz"),
+        ] {
+            let _ = writeln!(w, "variable p{id}_{q} equal {v}[{l}]");
+            let _ = write!(header, ",p{id}_{q}");
+            let _ = write!(row, ",${{p{id}_{q}}}");
+        }
+    }
+    let every = ((case.output.interval / dt).round() as u64).max(1);
+    if (every as f64 * dt - case.output.interval).abs() > 1e-9 * case.output.interval {
+        notes.push(format!(
+            "probes every {every} steps ({:.9e} s; talus writes a row at each step that crosses a multiple of {} s)",
+            every as f64 * dt,
+            case.output.interval
+        ));
+    }
+    let first = case.phases.first().map(|p| p.name.as_str()).unwrap_or("end");
+    let _ = writeln!(w, "variable phase string {first}");
+    let _ = writeln!(w, "thermo_style    custom {thermo}\nthermo          {every}\nthermo_modify   lost error norm no");
+    let _ = writeln!(w, "\n# step 0: forces at the start (run 0 moves nothing), the first row, the reference PE");
+    let _ = writeln!(w, "fix probe all print {every} \"{row}\" append probes.csv screen no title none");
+    let _ = writeln!(w, "run             0 post no");
+    let _ = writeln!(w, "print \"{header}\" file probes.csv screen no");
+    let _ = writeln!(w, "print \"{row}\" append probes.csv screen no");
+    let _ = writeln!(w, "variable pe0 equal ${{pe}}");
+    let _ = writeln!(w, "variable pre string no");
+
+    // phases
+    let mut s0: Option<u64> = Some(0);
+    // walls removed at a time: (step, wall index), in step order
+    let mut timed: Vec<(u64, usize)> = case
+        .walls
+        .iter()
+        .enumerate()
+        .filter_map(|(i, x)| x.remove_at.map(|t| (removal_step(t, dt), i)))
+        .collect();
+    timed.sort();
+    let remove = |w: &mut String, live: &mut Vec<bool>, i: usize, why: &str| {
+        if !live[i] {
+            return;
+        }
+        let x = &walls[i];
+        let _ = writeln!(w, "# remove wall {} ({why})", x.name);
+        wall_vars(w, x, false);
+        match x.kind {
+            Kind::Primitive { .. } => {
+                let _ = writeln!(w, "uncompute {0}_sum\nunfix {0}", x.name);
+                live[i] = false;
+            }
+            Kind::Mesh => {
+                let had = !mesh_names(live).is_empty();
+                if had {
+                    let _ = writeln!(w, "uncompute wgl_ave\nuncompute wgl_sum\nuncompute wgl\nunfix meshes");
+                }
+                if x.velocity != Vec3::zeros() {
+                    let _ = writeln!(w, "unfix {}_move", x.name);
+                }
+                let _ = writeln!(w, "unfix {}", x.name);
+                live[i] = false;
+                let _ = writeln!(w, "# the mesh fix again without it: contacts with the other meshes restart without history");
+                mesh_fix(w, &mesh_names(live));
+            }
+        }
+        contacts(w, live);
+        let _ = writeln!(w, "variable pre string yes");
+    };
+    for (k, ph) in case.phases.iter().enumerate() {
+        let _ = writeln!(w, "\n# ---- phase {k}: {} ({} s{})", ph.name, ph.duration, if ph.kinetic_energy_fraction.is_some() { ", or settled" } else { "" });
+        let _ = writeln!(w, "variable phase string {}", ph.name);
+        match (ph.kinetic_energy_fraction, s0) {
+            (None, Some(start)) => {
+                let n = phase_steps(start, ph.duration, dt);
+                let end = start + n;
+                let mut at = start;
+                while let Some(&(rs, i)) = timed.first() {
+                    if rs > end || rs < at {
+                        break;
+                    }
+                    if rs > at {
+                        let _ = writeln!(w, "run             {} pre ${{pre}} post no\nvariable pre string no", rs - at);
+                        at = rs;
+                    }
+                    remove(w, &mut live, i, &format!("remove_at = {} s", case.walls[i].remove_at.unwrap_or(0.0)));
+                    timed.remove(0);
+                }
+                if end > at {
+                    let _ = writeln!(w, "run             {} pre ${{pre}} post no\nvariable pre string no", end - at);
+                }
+                s0 = Some(end);
+            }
+            (None, None) => {
+                if timed.iter().any(|_| true) {
+                    return Err(refuse(case, "wall.remove_at", "a wall removed at a time after a phase that ends on kinetic energy: the step is not known when the deck is written"));
+                }
+                let n = (ph.duration / dt - 0.5).ceil().max(0.0) as u64;
+                let _ = writeln!(w, "run             {n} pre ${{pre}} post no\nvariable pre string no");
+            }
+            (Some(frac), _) => {
+                if timed.iter().any(|&(rs, _)| s0.is_none_or(|a| rs >= a)) {
+                    return Err(refuse(case, &format!("phase[{k}].kinetic_energy_fraction"), "a wall removed at a time during or after a phase that ends on kinetic energy: the step is not known when the deck is written"));
+                }
+                let nmax = match s0 {
+                    Some(a) => phase_steps(a, ph.duration, dt),
+                    None => (ph.duration / dt - 0.5).ceil().max(0.0) as u64,
+                };
+                let settle = (ph.settle_extra / dt - 0.5).ceil().max(0.0) as u64;
+                let p = format!("ph{k}");
+                let _ = writeln!(w, "# chunks to each multiple of 20 steps; between them the test KE < {frac:e} (PE0 - PE)");
+                let _ = writeln!(w, "variable {p}_end equal ${{st}}+{nmax}");
+                let _ = writeln!(w, "label {p}_loop");
+                let _ = writeln!(w, "if \"${{st}} >= ${{{p}_end}}\" then \"jump SELF {p}_done\"");
+                let _ = writeln!(w, "variable {p}_m equal ${{st}}-20*floor(${{st}}/20)");
+                let _ = writeln!(
+                    w,
+                    "if \"(${{{p}_m}} == 0) && (${{pe0}}-${{pe}} > 0) && (${{ke}} < {}*(${{pe0}}-${{pe}}))\" then \"jump SELF {p}_settled\"",
+                    g(frac)
+                );
+                let _ = writeln!(w, "variable {p}_a equal 20-${{{p}_m}}");
+                let _ = writeln!(w, "variable {p}_b equal ${{{p}_end}}-${{st}}");
+                let _ = writeln!(w, "variable {p}_n equal ${{{p}_a}}+(${{{p}_b}}<${{{p}_a}})*(${{{p}_b}}-${{{p}_a}})");
+                let _ = writeln!(w, "run             ${{{p}_n}} pre ${{pre}} post no\nvariable pre string no");
+                let _ = writeln!(w, "jump SELF {p}_loop");
+                let _ = writeln!(w, "label {p}_settled");
+                let _ = writeln!(w, "print \"phase {}: settled at step ${{st}}; {settle} steps more\"", ph.name);
+                let _ = writeln!(w, "variable {p}_b equal ${{{p}_end}}-${{st}}");
+                let _ = writeln!(w, "variable {p}_n equal {settle}+(${{{p}_b}}<{settle})*(${{{p}_b}}-{settle})");
+                let _ = writeln!(w, "run             ${{{p}_n}} pre ${{pre}} post no\nvariable pre string no");
+                let _ = writeln!(w, "label {p}_done");
+                s0 = None;
+            }
+        }
+        for name in &ph.remove_walls_at_end {
+            if let Some(i) = walls.iter().position(|x| &x.name == name) {
+                remove(w, &mut live, i, &format!("end of phase {}", ph.name));
+            }
+        }
+    }
+    let _ = writeln!(w, "\nprint \"talus export: done at step ${{st}}\"");
+    for n in notes.iter().skip(header_notes) {
+        let _ = writeln!(w, "# Note: {n}");
+    }
+    let deck = out.join("in.talus");
+    std::fs::write(&deck, s).map_err(|e| io(&deck, e))?;
+    Ok(Exported { files, command: format!("cd {} && liggghts -in in.talus -log log.liggghts", out.display()), notes })
+}

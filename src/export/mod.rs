@@ -1,0 +1,111 @@
+//! `talus export CASE --to liggghts --out DIR`: a case written as a
+//! self-contained input for a reference code, in that code's conventions,
+//! writing the same probes as talus's `probes.csv` (same columns, units and
+//! interval). What the code cannot run is refused with the key and the reason.
+//!
+//! The exporter works from the case as talus builds it (`Simulation::new`):
+//! the initial particles (a lattice cloud included), the resolved time step
+//! and skin, the meshes as loaded. So an exported deck runs the very particles
+//! talus starts from.
+
+pub mod liggghts;
+
+use crate::case::Case;
+use crate::error::TalusError;
+use std::path::{Path, PathBuf};
+
+/// A reference code an exported case runs in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    Liggghts,
+}
+
+impl Target {
+    pub fn parse(s: &str) -> Result<Target, TalusError> {
+        match s {
+            "liggghts" => Ok(Target::Liggghts),
+            "yade" => Err(TalusError::Input(
+                "--to yade: the YADE exporter is not written yet (issue 13); export to liggghts, or use yade_cases/ for SC and H1"
+                    .into(),
+            )),
+            _ => Err(TalusError::Input(format!("--to {s}: must be liggghts or yade"))),
+        }
+    }
+}
+
+/// What an export wrote.
+pub struct Exported {
+    /// The input to run (the deck), then every other file written.
+    pub files: Vec<PathBuf>,
+    /// How to run it.
+    pub command: String,
+    /// Where the exported set-up differs from the case, by the target's conventions.
+    pub notes: Vec<String>,
+}
+
+/// Export `case` for `target` into `out` (created).
+pub fn export(case: &Case, target: Target, out: &Path) -> Result<Exported, TalusError> {
+    std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
+    match target {
+        Target::Liggghts => liggghts::export(case, out),
+    }
+}
+
+/// A refusal: the case's key and why the target cannot run it.
+pub(crate) fn refuse(case: &Case, key: &str, why: &str) -> TalusError {
+    TalusError::Input(format!("{}: {key}: {why}", case.path.display()))
+}
+
+/// Steps a phase of `duration` (s) runs from step `s0`, exactly as
+/// `Simulation::advance_phase` decides (elapsed >= duration - dt/2).
+pub fn phase_steps(s0: u64, duration: f64, dt: f64) -> u64 {
+    let start = s0 as f64 * dt;
+    // first guess, then the exact test in the engine's arithmetic
+    let mut n = ((duration / dt) - 0.5).ceil().max(0.0) as u64;
+    while n > 0 && ((s0 + n - 1) as f64 * dt - start) >= duration - 0.5 * dt {
+        n -= 1;
+    }
+    while ((s0 + n) as f64 * dt - start) < duration - 0.5 * dt {
+        n += 1;
+    }
+    n
+}
+
+/// The step at the end of which a wall with `remove_at` (s) is removed
+/// (`Simulation::step`: t >= remove_at - dt/2 after the step).
+pub fn removal_step(remove_at: f64, dt: f64) -> u64 {
+    let mut s = ((remove_at / dt) - 0.5).ceil().max(1.0) as u64;
+    while s > 1 && (s - 1) as f64 * dt >= remove_at - 0.5 * dt {
+        s -= 1;
+    }
+    while (s as f64 * dt) < remove_at - 0.5 * dt {
+        s += 1;
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn phase_steps_match_the_engine_rule() {
+        let dt = 1.0673161788874508e-4;
+        for s0 in [0u64, 1, 17, 6475] {
+            for d in [0.004, 0.2, 1.5, 0.01] {
+                let n = phase_steps(s0, d, dt);
+                let t = |k: u64| k as f64 * dt - s0 as f64 * dt;
+                assert!(t(s0 + n) >= d - 0.5 * dt && (n == 0 || t(s0 + n - 1) < d - 0.5 * dt));
+            }
+        }
+        assert_eq!(phase_steps(0, 0.004, 5e-6), 800);
+    }
+
+    #[test]
+    fn removal_step_is_the_first_step_past_the_time() {
+        let dt = 1e-4;
+        let s = removal_step(0.05, dt);
+        assert_eq!(s, 500);
+        assert!(s as f64 * dt >= 0.05 - 0.5 * dt && ((s - 1) as f64 * dt) < 0.05 - 0.5 * dt);
+    }
+}
