@@ -3,6 +3,8 @@
 SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper, or `throughput TARGET` with
 TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense settled
 bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
+`python -m compare CASE.toml [--engines talus,liggghts]`: any case, exported to the
+reference and compared column by column (compare/case.py);
 `python -m compare regress CASE.toml --golden FILE`: talus against its golden file
 (compare/regress.py); `python -m compare window`: the H1-paper discharge window.
 Runs the engines, computes every figure from their raw time series by one piece of
@@ -103,6 +105,9 @@ def main(argv=None):
     if argv[:1] == ["window"]:  # H1-paper discharge window, its own options: compare/window.py
         from . import window
         return window.main(argv[1:])
+    if argv[:1] and argv[0].endswith(".toml"):  # any case: exported, run, compared (compare/case.py)
+        from . import case
+        return case.main(argv)
     if argv[:1] == ["regress"]:  # talus against its golden file: compare/regress.py
         from . import regress
         return regress.main(argv[1:])

@@ -1,0 +1,297 @@
+"""python -m compare CASE.toml [--engines talus,liggghts] [--out DIR]
+
+Any case against the reference codes: the case is exported (`talus export --to ENGINE`)
+and run there, talus runs it in that engine's convention, and one piece of code
+measures both from their probes.csv:
+
+- the case's analysis figures where it has them (`collision`: restitution, contact
+  duration, peak overlap and normal force, tangential rebound, spin; `hopper`: discharge
+  rate (20-80% fit) and the walls' load over the weight at the end of the fill);
+- for every probe column, the largest deviation over the run, talus's series against the
+  reference's interpolated to talus's times, as a fraction of the reference column's range;
+  and the difference of the column's means over each window of `[compare] windows`.
+
+Tolerances come from the case's `[compare]` section (defaults: figures 0.02 relative,
+series 0.05 of the range, window means 0.02 of the range). Writes report.md (a plot per
+probe column), figures.json and the runs into DIR (default out/compare/<case name>);
+exits 1 when anything is outside tolerance, 2 when an engine cannot run the case.
+YADE: the exporter does not write YADE scripts yet (`yade_cases/` covers SC and H1).
+"""
+
+import argparse
+import csv
+import json
+import math
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from .engines import TALUS, EngineError, check_versions
+from .regress import DEFAULTS
+
+SKIP = {"time_s", "step", "phase"}
+CONVENTION = {"liggghts": "liggghts", "yade": "yade"}
+
+
+def read_probes(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise EngineError(f"{path}: no rows")
+    s = {c: np.array([float(r[c]) for r in rows]) for c in rows[0] if c != "phase"}
+    s["phase"] = np.array([r["phase"] for r in rows])
+    return s
+
+
+def run(cmd, log, cwd=None):
+    with open(log, "w") as f:
+        p = subprocess.run([str(c) for c in cmd], cwd=cwd, stdout=f, stderr=subprocess.STDOUT)
+    if p.returncode != 0:
+        raise EngineError(f"{' '.join(map(str, cmd))} failed (exit {p.returncode}); log {log}:\n{Path(log).read_text()[-1500:]}")
+
+
+def run_talus(case, convention, out):
+    out.mkdir(parents=True, exist_ok=True)
+    run([TALUS, "run", case, "--out", out, "--quiet", "--set", f"contact.convention={convention}"], out / "talus.log")
+    return read_probes(out / "probes.csv"), json.loads((out / "summary.json").read_text())
+
+
+def run_reference(case, engine, out):
+    out.mkdir(parents=True, exist_ok=True)
+    run([TALUS, "export", case, "--to", engine, "--out", out], out / "export.log")
+    if engine == "liggghts":
+        run(["liggghts", "-in", "in.talus", "-log", "log.liggghts"], out / "run.log", cwd=out)
+    return read_probes(out / "probes.csv")
+
+
+def collision_figures(s, case):
+    """SC figures of the case's `collision` analysis from tracked particles' columns."""
+    a = case["analysis"]
+    pid = a["particle"]
+    parts = {p["id"]: p for p in case["particles"].get("list", [])}
+    r1 = parts[pid]["radius"]
+
+    def v3(k, q):
+        return np.stack([s[f"p{k}_{c}{q}"] for c in ("x", "y", "z")], axis=1) if q == "_m" else \
+            np.stack([s[f"p{k}_{c}"] for c in q], axis=1)
+
+    x1 = v3(pid, "_m")
+    v1 = v3(pid, ["vx_m_s", "vy_m_s", "vz_m_s"])
+    w1 = v3(pid, ["wx_rad_s", "wy_rad_s", "wz_rad_s"])
+    f1 = v3(pid, ["fx_n", "fy_n", "fz_n"])
+    if a.get("partner") is not None:
+        k = a["partner"]
+        r2 = parts[k]["radius"]
+        x2, v2, w2 = v3(k, "_m"), v3(k, ["vx_m_s", "vy_m_s", "vz_m_s"]), v3(k, ["wx_rad_s", "wy_rad_s", "wz_rad_s"])
+        n = (x1[0] - x2[0]) / np.linalg.norm(x1[0] - x2[0])
+        overlap = r1 + r2 - np.linalg.norm(x1 - x2, axis=1)
+        vrel = v1 - v2
+    else:
+        wall = next(w for w in case["wall"] if w["name"] == a["wall"])
+        n = np.array(wall["plane"]["normal"], float)
+        n = n / np.linalg.norm(n)
+        overlap = r1 - (x1 - np.array(wall["plane"]["point"], float)) @ n
+        vrel, w2 = v1, None
+    t = s["time_s"]
+    inside = overlap > 0
+    if not inside.any():
+        raise EngineError("the collision never happened in the series")
+    k0 = int(np.argmax(inside))
+    k1 = k0 + int(np.argmax(~inside[k0:]))
+    ts = t[k0 - 1] + (t[k0] - t[k0 - 1]) * (-overlap[k0 - 1]) / (overlap[k0] - overlap[k0 - 1])
+    te = t[k1 - 1] + (t[k1] - t[k1 - 1]) * overlap[k1 - 1] / (overlap[k1 - 1] - overlap[k1])
+    vin, vout = vrel[0], vrel[-1]
+    vt = vin - n * vin.dot(n)
+    slip = np.cross(w1[0], -r1 * n)
+    if w2 is not None:
+        slip = slip - np.cross(w2[0], r2 * n)
+    slip = slip - n * slip.dot(n)
+    tdir = vt / np.linalg.norm(vt) if np.linalg.norm(vt) > 0 else (slip / np.linalg.norm(slip) if np.linalg.norm(slip) > 0 else np.zeros(3))
+    return {
+        "restitution": float(-vout.dot(n) / vin.dot(n)),
+        "contact_duration_s": float(te - ts),
+        "max_overlap_m": float(overlap[inside].max()),
+        "max_normal_force_n": float(np.abs(f1[inside] @ n).max()),
+        "tangential_rebound_m_s": float(vout.dot(tdir)),
+        "spin_rad_s": float(w1[-1].dot(np.cross(n, tdir))),
+    }
+
+
+def hopper_figures(s, case, total_mass):
+    a = case["analysis"]
+    g = np.linalg.norm(case["simulation"].get("gravity", [0, 0, -9.81]))
+    m = s["mass_below_kg"]
+    sel = (m >= 0.2 * total_mass) & (m <= 0.8 * total_mass)
+    fig = {"discharged_mass_kg": float(m[-1])}
+    if sel.sum() >= 3:
+        fig["discharge_rate_kg_s"] = float(np.polyfit(s["time_s"][sel], m[sel], 1)[0])
+    fill = s["phase"] == a["fill_phase"]
+    if fill.any():
+        t_end = s["time_s"][fill].max()
+        win = fill & (s["time_s"] >= t_end - a.get("fill_window", 0.1))
+        walls = [w["name"] for w in case.get("wall", [])]
+        fz = sum(s[f"{w}_force_z_n"][win].mean() for w in walls)
+        fig["fill_end_force_balance"] = float(-fz / (total_mass * g))
+        fig["fill_end_time_s"] = float(t_end)
+    return fig
+
+
+def figures_of(s, case, summary):
+    kind = case.get("analysis", {}).get("kind")
+    if kind == "collision":
+        return collision_figures(s, case)
+    if kind == "hopper":
+        return hopper_figures(s, case, summary["total_mass_kg"])
+    return {}
+
+
+def series_checks(talus, ref, tol):
+    out = []
+    t_t, t_r = talus["time_s"], ref["time_s"]
+    end = min(t_t[-1], t_r[-1])
+    keep = t_t <= end + 1e-12
+    for col in talus:
+        if col in SKIP or col in tol["ignore"] or col not in ref:
+            continue
+        a = talus[col][keep]
+        b = np.interp(t_t[keep], t_r, ref[col])
+        rng = ref[col].max() - ref[col].min()
+        scale = rng if rng > 0 else max(np.abs(ref[col]).max(), 1e-300)
+        dev = float(np.abs(a - b).max() / scale) if len(a) else 0.0
+        t = tol["series"].get(col, tol["series_range"])
+        out.append({"kind": "series", "name": col, "deviation": dev, "tolerance": t, "ok": dev <= t})
+        for w0, w1 in tol["windows"]:
+            ia = (t_t >= w0) & (t_t <= w1)
+            ib = (t_r >= w0) & (t_r <= w1)
+            if not ia.any() or not ib.any():
+                out.append({"kind": "window", "name": f"{col}@[{w0},{w1}]", "deviation": math.nan, "tolerance": 0, "ok": False})
+                continue
+            d = float(abs(talus[col][ia].mean() - ref[col][ib].mean()) / scale)
+            out.append({"kind": "window", "name": f"{col}@[{w0},{w1}]", "deviation": d, "tolerance": tol["window_mean"], "ok": d <= tol["window_mean"]})
+    return out
+
+
+def figure_checks(ft, fr, tol):
+    out = []
+    for k in ft:
+        if k in tol["ignore"] or k not in fr:
+            continue
+        scale = abs(fr[k]) if fr[k] != 0 else 1.0
+        d = abs(ft[k] - fr[k]) / scale
+        t = tol["figures"].get(k, tol["figure_rel"])
+        out.append({"kind": "figure", "name": k, "talus": ft[k], "reference": fr[k], "deviation": d, "tolerance": t, "ok": d <= t})
+    return out
+
+
+def plot(out, name, talus, refs):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    first = next(iter(talus.values()))
+    cols = [c for c in first if c not in SKIP]
+    paths = {}
+    (out / "plots").mkdir(parents=True, exist_ok=True)
+    for c in cols:
+        fig, ax = plt.subplots(figsize=(5, 3))
+        for label, s in talus_and_refs(talus, refs):
+            if c in s:
+                ax.plot(s["time_s"], s[c], label=label, lw=1)
+        ax.set_xlabel("time_s")
+        ax.set_ylabel(c)
+        ax.set_title(f"{name}: {c}", fontsize=9)
+        if ax.get_lines():
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        p = out / "plots" / f"{c}.png"
+        fig.savefig(p, dpi=90)
+        plt.close(fig)
+        paths[c] = p
+    return paths
+
+
+def talus_and_refs(talus, refs):
+    yield from talus.items()
+    yield from refs.items()
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m compare CASE.toml", description=__doc__.splitlines()[0])
+    ap.add_argument("case", type=Path)
+    ap.add_argument("--engines", default="talus,liggghts")
+    ap.add_argument("--out", type=Path)
+    a = ap.parse_args(argv)
+    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
+    refs = [e for e in engines if e != "talus"]
+    try:
+        for e in engines:
+            if e not in ("talus", "liggghts", "yade"):
+                raise EngineError(f"--engines: unknown engine `{e}` (talus, liggghts, yade)")
+        if "yade" in refs:
+            raise EngineError("yade: talus export does not write YADE scripts yet; use --engines talus,liggghts (yade_cases/ covers SC and H1)")
+        if not refs:
+            raise EngineError("--engines: name a reference (liggghts)")
+        check_versions(["talus"] + refs)
+        with open(a.case, "rb") as f:
+            case = tomllib.load(f)
+    except (EngineError, OSError, tomllib.TOMLDecodeError) as e:
+        print(f"compare: {e}", file=sys.stderr)
+        return 2
+    tol = dict(DEFAULTS)
+    tol.update(case.get("compare", {}))
+    for k, v in (("figures", {}), ("series", {}), ("windows", []), ("ignore", [])):
+        tol.setdefault(k, v)
+    out = a.out or Path("out") / "compare" / a.case.stem
+    out.mkdir(parents=True, exist_ok=True)
+    result = {"case": str(a.case), "tolerances": tol, "engines": {}, "checks": {}}
+    talus_series, ref_series = {}, {}
+    try:
+        for ref in refs:
+            conv = CONVENTION[ref]
+            ts, summary = run_talus(a.case, conv, out / f"talus-{conv}")
+            rs = run_reference(a.case, ref, out / ref)
+            talus_series[f"talus[{conv}]"], ref_series[ref] = ts, rs
+            ft, fr = figures_of(ts, case, summary), figures_of(rs, case, summary)
+            result["engines"][f"talus[{conv}]"] = ft
+            result["engines"][ref] = fr
+            result["checks"][ref] = figure_checks(ft, fr, tol) + series_checks(ts, rs, tol)
+    except EngineError as e:
+        print(f"compare: {e}", file=sys.stderr)
+        return 2
+    plots = plot(out, a.case.stem, talus_series, ref_series)
+    failures = [f"talus vs {ref}: {c['name']} deviation {c['deviation']:.3g} > {c['tolerance']:g}"
+                for ref, cs in result["checks"].items() for c in cs if not c["ok"]]
+    result["failures"] = failures
+    (out / "figures.json").write_text(json.dumps(result, indent=1, default=float) + "\n")
+    lines = [f"# {a.case.name}: talus against {', '.join(refs)}", ""]
+    if any(result["engines"].values()):
+        names = list(result["engines"])
+        keys = sorted({k for f in result["engines"].values() for k in f})
+        lines += ["| figure | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+        for k in keys:
+            lines.append(f"| {k} | " + " | ".join(f"{result['engines'][n].get(k, float('nan')):.6g}" for n in names) + " |")
+        lines.append("")
+    for ref, cs in result["checks"].items():
+        lines += [f"## talus[{CONVENTION[ref]}] against {ref}", "", "| check | name | deviation | tolerance | |", "|---|---|---|---|---|"]
+        for c in cs:
+            lines.append(f"| {c['kind']} | {c['name']} | {c['deviation']:.3g} | {c['tolerance']:g} | {'ok' if c['ok'] else '**OUTSIDE**'} |")
+        lines.append("")
+    lines += ["## Plots", ""] + [f"![{c}](plots/{p.name})" for c, p in plots.items()]
+    (out / "report.md").write_text("\n".join(lines) + "\n")
+    for n, f in result["engines"].items():
+        if f:
+            print(n, json.dumps(f))
+    n_checks = sum(len(cs) for cs in result["checks"].values())
+    print(f"{n_checks - len(failures)} of {n_checks} checks within tolerance; report: {out / 'report.md'}")
+    if failures:
+        print("OUTSIDE TOLERANCE:\n  " + "\n  ".join(failures))
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
