@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Physics regression against the reference codes: every SC set-up with both models,
-# and H1-small, through the compare harness. Fails on any figure outside tolerance.
+# and H1-small, through the compare harness (hand-written decks), then the case files
+# exported by `talus export` (python -m compare CASE.toml). Fails on any figure outside tolerance.
 #   scripts/compare_all.sh [--full] [SC_ENGINES [H1_ENGINES]]
 # --full also runs H1-paper (100,000 spheres; tens of minutes per engine).
 # (defaults: all three engines, for SC and H1)
@@ -22,6 +23,12 @@ done
 python3 -m compare H1-small --engines "$h1_engines" --out "$out/H1-small" > "$out-H1-small.log" 2>&1 \
   || { cat "$out-H1-small.log"; echo "compare H1-small: FAILED"; exit 1; }
 echo "compare H1-small ($h1_engines): all figures within tolerance"
+# the case files themselves, exported to LIGGGHTS (talus export) and compared column by column
+for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke H1-small; do
+  python3 -m compare "cases/$c.toml" --engines talus,liggghts --out "$out/case-$c" > "$out-case-$c.log" 2>&1 \
+    || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
+  echo "compare cases/$c.toml (talus, exported to liggghts): within tolerance"
+done
 if [ "$full" = 1 ]; then
   python3 -m compare H1-paper --engines "$h1_engines" --out "$out/H1-paper" > "$out-H1-paper.log" 2>&1 \
     || { cat "$out-H1-paper.log"; echo "compare H1-paper: FAILED"; exit 1; }

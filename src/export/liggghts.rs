@@ -490,11 +490,9 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 let _ = writeln!(w, "label {p}_loop");
                 let _ = writeln!(w, "if \"${{st}} >= ${{{p}_end}}\" then \"jump SELF {p}_done\"");
                 let _ = writeln!(w, "variable {p}_m equal ${{st}}-20*floor(${{st}}/20)");
-                let _ = writeln!(
-                    w,
-                    "if \"(${{{p}_m}} == 0) && (${{pe0}}-${{pe}} > 0) && (${{ke}} < {}*(${{pe0}}-${{pe}}))\" then \"jump SELF {p}_settled\"",
-                    g(frac)
-                );
+                // (the `if` of this LAMMPS base compares numbers only: the test is a variable)
+                let _ = writeln!(w, "variable {p}_test equal (v_{p}_m==0)&&(v_pe0-v_pe>0)&&(v_ke<{}*(v_pe0-v_pe))", g(frac));
+                let _ = writeln!(w, "if \"${{{p}_test}} == 1\" then \"jump SELF {p}_settled\"");
                 let _ = writeln!(w, "variable {p}_a equal 20-${{{p}_m}}");
                 let _ = writeln!(w, "variable {p}_b equal ${{{p}_end}}-${{st}}");
                 let _ = writeln!(w, "variable {p}_n equal ${{{p}_a}}+(${{{p}_b}}<${{{p}_a}})*(${{{p}_b}}-${{{p}_a}})");
