@@ -120,14 +120,17 @@ def run_yade_sc(run, work, dt):
     return out
 
 
-def run_talus_h1(setup, convention, work, max_steps=None, ranks=1):
-    """talus on H1 (on `ranks` MPI ranks if more than one); returns (probes.csv, summary dict)."""
+def run_talus_h1(setup, convention, work, max_steps=None, ranks=1, threads=None):
+    """talus on H1 (on `ranks` MPI ranks if more than one, `threads` per rank, default: the
+    cores shared among the ranks); returns (probes.csv, summary dict)."""
     import json
     work.mkdir(parents=True, exist_ok=True)
-    tag = f"talus-{convention}" + (f"-p{ranks}" if ranks > 1 else "")
+    tag = f"talus-{convention}" + (f"-p{ranks}" if ranks > 1 else "") + (f"-t{threads}" if threads else "")
     out = work / tag
     extra = ["--steps", str(max_steps)] if max_steps else []
     extra += sets({"contact.convention": convention, "output.snapshot_interval": 1000.0})
+    if threads:
+        extra += ["--threads", str(threads)]
     mpi = ["mpirun", "--allow-run-as-root", "-n", str(ranks)] if ranks > 1 else []
     _run([*mpi, TALUS, "run", case_path(setup), "--out", out, "--quiet", *extra], work / f"{tag}.log")
     return out / "probes.csv", json.loads((out / "summary.json").read_text())

@@ -150,7 +150,8 @@ def throughput(setup, engs, out, max_steps=None):
     With `max_steps`, every engine runs only the first steps of the fill."""
     nums = _case_numbers(setup)
     res = {}
-    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps)
+    # one process on one core each (talus: one thread), as the reference codes run
+    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, threads=1)
     n, steps = summ["particles"], summ["steps"]
     res["talus"] = summ["particle_steps_per_s"]
     if max_steps:
@@ -168,6 +169,9 @@ def throughput(setup, engs, out, max_steps=None):
     # talus on 2 MPI ranks (this machine has 2 cores): same case, steps and cloud
     _, summ2 = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, ranks=2)
     res["talus_2_ranks"] = summ2["particle_steps_per_s"]
-    ratios = {k: res["talus"] / v for k, v in res.items() if k not in ("talus", "talus_2_ranks")}
+    _, summ3 = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, threads=2)
+    res["talus_2_threads"] = summ3["particle_steps_per_s"]
+    ratios = {k: res["talus"] / v for k, v in res.items() if k not in ("talus", "talus_2_ranks", "talus_2_threads")}
+    ratios["talus_2_threads/talus"] = res["talus_2_threads"] / res["talus"]
     ratios.update({f"talus_2_ranks/{k}": res["talus_2_ranks"] / v for k, v in res.items() if k != "talus_2_ranks"})
     return {"setup": setup, "particles": n, "steps": steps, "particle_steps_per_s": res, "talus_over": ratios}
