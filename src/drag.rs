@@ -435,11 +435,18 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
 /// `std_drag_n`, `beds`), `drag_vs_displacement.csv` (mean and standard deviation
 /// over the beds at each displacement) and `beds.csv` (each bed's mean drag).
 pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> {
+    run_with(dc, out, || Ok(()))
+}
+
+/// `run`, calling `between` after each bed: an error from it stops the study
+/// there (the Python module checks for Ctrl-C so).
+pub fn run_with(dc: &DragCase, out: &Path, mut between: impl FnMut() -> Result<(), TalusError>) -> Result<Map<String, Value>, TalusError> {
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     let start = std::time::Instant::now();
     let mut beds = Vec::new();
     for &seed in &dc.drag.seeds {
         beds.push(run_bed(dc, seed)?);
+        between()?;
     }
     let wall = start.elapsed().as_secs_f64();
     let n = beds.len() as f64;

@@ -657,18 +657,30 @@ impl Wall {
 }
 
 /// Run a drag case (the drag paper's study) over its seeded beds into `out`
-/// (default out/drag/<id>); returns its summary as a dict. Releases the GIL.
+/// (default out/drag/<id>); returns its summary as a dict. Releases the GIL;
+/// Ctrl-C raises KeyboardInterrupt after the bed being run.
 #[pyfunction]
 #[pyo3(signature = (case, out=None))]
 fn drag<'py>(py: Python<'py>, case: &Bound<'py, PyAny>, out: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyAny>> {
     let path = path_of(case)?;
     let dc = talus::drag::DragCase::load(&path).map_err(to_py)?;
     let out = out.map(path_of).transpose()?.unwrap_or_else(|| Path::new("out").join("drag").join(&dc.drag.id));
-    let job = OnThisThread((&dc, out.as_path()));
+    // Ctrl-C is checked after each bed (the GIL is taken back for it)
+    let interrupted: std::cell::RefCell<Option<PyErr>> = std::cell::RefCell::new(None);
+    let job = OnThisThread((&dc, out.as_path(), &interrupted));
     let r = py.detach(move || {
         let job = job;
-        OnThisThread(talus::drag::run(job.0.0, job.0.1))
+        let (dc, out, interrupted) = job.0;
+        OnThisThread(talus::drag::run_with(dc, out, || {
+            Python::attach(|py| py.check_signals()).map_err(|e| {
+                *interrupted.borrow_mut() = Some(e);
+                TalusError::Run("interrupted".into())
+            })
+        }))
     });
+    if let Some(e) = interrupted.into_inner() {
+        return Err(e);
+    }
     let s = r.0.map_err(to_py)?;
     json_to_py(py, &s)
 }

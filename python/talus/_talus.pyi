@@ -178,7 +178,8 @@ class Wall:
 
 def drag(case: PathLike, out: Optional[PathLike] = None) -> dict:
     """Run a drag case (the drag paper's study) over its seeded beds into out
-    (default out/drag/<id>); returns its summary. Releases the GIL."""
+    (default out/drag/<id>); returns its summary. Releases the GIL; Ctrl-C
+    raises KeyboardInterrupt after the bed being run."""
 
 def cloud(case: PathLike) -> dict:
     """The initial particles of a case, as a dict of arrays in order of id:

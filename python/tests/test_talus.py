@@ -396,3 +396,16 @@ def test_drag_from_python_is_talus_drag(tmp_path):
     bad.write_text(case.read_text().replace("granule_size = 1.092e-3", "granule_size = -1.0"))
     with pytest.raises(talus.InputError, match="granule_size"):
         talus.drag(bad, out=tmp_path / "bad")
+
+
+def test_ctrl_c_stops_a_drag_study_after_its_bed(tmp_path):
+    case = tmp_path / "c1-three-beds.toml"
+    case.write_text((CASES / "drag" / "c1.toml").read_text().replace('id = "c1"', 'id = "c1-three-beds"\nseeds = [1, 2, 3]'))
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t = time.time()
+    with pytest.raises(KeyboardInterrupt):
+        talus.drag(case, out=tmp_path / "o")
+    # stopped after the first bed, not after all three
+    assert not (tmp_path / "o" / "summary.json").exists()
+    assert time.time() - t < 60
