@@ -59,7 +59,7 @@ enum Cmd {
     /// writing the same probes as talus's probes.csv; what the code cannot run is refused naming the key.
     Export {
         case: PathBuf,
-        /// The reference code: liggghts (yade: not yet).
+        /// The reference code: liggghts or yade.
         #[arg(long)]
         to: String,
         /// Output folder (default: out/export/<case name>-<code>).

@@ -1,4 +1,4 @@
-//! `talus export CASE --to liggghts --out DIR`: a case written as a
+//! `talus export CASE --to liggghts|yade --out DIR`: a case written as a
 //! self-contained input for a reference code, in that code's conventions,
 //! writing the same probes as talus's `probes.csv` (same columns, units and
 //! interval). What the code cannot run is refused with the key and the reason.
@@ -9,6 +9,7 @@
 //! talus starts from.
 
 pub mod liggghts;
+pub mod yade;
 
 use crate::case::Case;
 use crate::error::TalusError;
@@ -18,16 +19,14 @@ use std::path::{Path, PathBuf};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Target {
     Liggghts,
+    Yade,
 }
 
 impl Target {
     pub fn parse(s: &str) -> Result<Target, TalusError> {
         match s {
             "liggghts" => Ok(Target::Liggghts),
-            "yade" => Err(TalusError::Input(
-                "--to yade: the YADE exporter is not written yet (issue 13); export to liggghts, or use yade_cases/ for SC and H1"
-                    .into(),
-            )),
+            "yade" => Ok(Target::Yade),
             _ => Err(TalusError::Input(format!("--to {s}: must be liggghts or yade"))),
         }
     }
@@ -48,6 +47,7 @@ pub fn export(case: &Case, target: Target, out: &Path) -> Result<Exported, Talus
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     match target {
         Target::Liggghts => liggghts::export(case, out),
+        Target::Yade => yade::export(case, out),
     }
 }
 

@@ -1,0 +1,390 @@
+# ---- The driver of every exported YADE script (talus src/export/yade_driver.py).
+# It reads only C (above) and particles.csv / meshes/, and writes probes.csv with
+# the columns of talus's probes.csv, on talus's row steps.
+#
+# Time: YADE's NewtonIntegrator is leapfrog; iteration k evaluates F_k at x_k. The
+# probe hook runs between the force loop and the integrator, so a row at
+# iteration k holds talus's end-of-step-k state (x_k, F_k), with the step
+# velocities v_k = v(k-1/2) + dt/2 (F_k/m + g). At iteration 0 every body carries
+# v_0 (the contact laws see it, as talus's first force evaluation does); after the
+# row the hook sets v(-1/2) = v_0 - dt/2 (F_0/m + g), so that leapfrog from there
+# is velocity Verlet from v_0.
+#
+# Phases and removals run between O.run chunks, with talus's step rules ported
+# in the same floating-point operations (k*dt, the same comparisons).
+import csv
+import math
+import sys
+
+import __main__
+from yade import ymport
+
+dt = C["dt"]
+iv = C["interval"]
+two_d = C["dimension"] == 2
+hertz = C["model"] == "hertz"
+g = Vector3(*C["gravity"])
+ZERO = Vector3(0.0, 0.0, 0.0)
+O.reset()
+O.dt = dt
+
+
+def proj(v):
+    """A velocity or force as the case's dimension lets it be (2D: x-y)."""
+    return Vector3(v[0], v[1], 0.0) if two_d else Vector3(v[0], v[1], v[2])
+
+
+def proj_w(w):
+    """A spin or torque as the case's dimension lets it be (2D: about z)."""
+    return Vector3(0.0, 0.0, w[2]) if two_d else Vector3(w[0], w[1], w[2])
+
+
+# ---- materials: C["materials"] in order; the particles' first, then one per wall
+mats = []
+for m in C["materials"]:
+    phi = math.atan(m["mu"])
+    if hertz:
+        mat = FrictMat(young=m["E"], poisson=m["nu"], density=m["rho"], frictionAngle=phi, label=m["name"])
+    else:
+        kn, ks, cn, cs = m["viscel"]
+        mat = ViscElMat(kn=kn, ks=ks, cn=cn, cs=cs, density=m["rho"], frictionAngle=phi, label=m["name"])
+    mats.append(O.materials.append(mat))
+if hertz:
+    # YADE does not mix restitution: every pair of materials gets talus's mixed e
+    matches = [(mats[a], mats[b], e) for a, b, e in C["en"]]
+    ip2 = Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(matches=matches), es=MatchMaker(matches=matches))
+    law2 = Law2_ScGeom_MindlinPhys_Mindlin()
+else:
+    ip2, law2 = Ip2_ViscElMat_ViscElMat_ViscElPhys(), Law2_ScGeom_ViscElPhys_Basic()
+
+# ---- particles: talus id -> body id; clump members wait for their clump
+members = {t for c in C["clumps"] for t in c["members"]}
+free = []          # [body id, talus id, mass, inertia] of free spheres
+pending = {}
+info = {}          # talus id -> (mass, inertia, radius)
+with open("particles.csv", newline="") as fh:
+    for r in csv.DictReader(fh):
+        t = int(r["id"])
+        f = {k: float(v) for k, v in r.items() if k not in ("id", "material")}
+        b = utils.sphere((f["x"], f["y"], f["z"]), f["radius"], material=mats[int(r["material"])])
+        b.state.mass = f["mass"]
+        b.state.inertia = Vector3(f["inertia"], f["inertia"], f["inertia"])
+        b.state.vel = Vector3(f["vx"], f["vy"], f["vz"])
+        b.state.angVel = Vector3(f["wx"], f["wy"], f["wz"])
+        info[t] = (f["mass"], f["inertia"], f["radius"])
+        if t in members:
+            pending[t] = b
+            continue
+        if two_d:
+            b.state.blockedDOFs = "zXY"
+        free.append([O.bodies.append(b), t, f["mass"], f["inertia"]])
+bid = {t: b for b, t, _, _ in free}
+clumps = []        # [clump body id, [(member body id, talus id)], mass, inertia about z]
+for c in C["clumps"]:
+    cid, mem = O.bodies.appendClumped([pending[t] for t in c["members"]])
+    s = O.bodies[cid].state           # appendClumped zeroed the clump's velocities
+    s.mass = c["mass"]
+    s.vel = Vector3(*c["vel"])
+    s.angVel = Vector3(0.0, 0.0, c["omega_z"])
+    if two_d:
+        s.blockedDOFs = "zXY"
+    if abs(s.inertia[2] - c["inertia"]) > 1e-9 * c["inertia"]:
+        sys.exit("talus export: clump of %s: YADE's inertia %.17g, talus's %.17g" % (c["members"], s.inertia[2], c["inertia"]))
+    s.inertia = Vector3(s.inertia[0], s.inertia[1], c["inertia"])
+    for t, m in zip(c["members"], mem):
+        bid[t] = m
+    clumps.append([cid, list(zip(mem, c["members"])), c["mass"], c["inertia"]])
+radius_of = {bid[t]: info[t][2] for t in info}
+mass_inertia = {bid[t]: info[t][:2] for t in info}   # a member's own, as talus counts them
+
+# ---- walls: the body ids of each, every one moving at the wall's velocity
+wall_ids, wall_of = [], {}
+for i, w in enumerate(C["walls"]):
+    mid, k = mats[w["material"]], w["kind"]
+    if k == "wall":
+        ids = [O.bodies.append(utils.wall(w["at"], axis=w["axis"], sense=0, material=mid))]
+    elif k == "box":
+        ids = [O.bodies.append(utils.wall(at, axis=ax, sense=0, material=mid)) for ax, at in w["sides"]]
+    elif k == "facet":
+        ids = [O.bodies.append(utils.facet([Vector3(*v) for v in w["vertices"]], material=mid))]
+    elif k == "stl":
+        ids = list(O.bodies.append(ymport.stl(w["file"], fixed=True, material=mid)))
+    else:  # ball
+        ids = [O.bodies.append(utils.sphere(Vector3(*w["center"]), w["radius"], fixed=True, material=mid))]
+        radius_of[ids[0]] = w["radius"]
+    for j in ids:
+        O.bodies[j].state.vel = Vector3(*w["velocity"])
+        wall_of[j] = i
+    wall_ids.append(ids)
+removed = [False] * len(wall_ids)
+# (the exporter wrote wall_arm: 1 puts the torque's contact point on the wall's surface, 0.5 mid-overlap)
+arm = C["wall_arm"]
+
+# ---- probes
+tracked = [(t, bid[t]) for t in C["track"]]
+clump_of = {}
+for ci, (cid, mem, _, _) in enumerate(clumps):
+    for m, t in mem:
+        clump_of[m] = ci
+out = open("probes.csv", "w")
+out.write(C["header"] + "\n")
+stats = {"force_check": 0.0, "rows": 0}
+v0 = {}
+
+
+def clump_loads(cid, mem):
+    """Force and torque (about the clump's centre) summed from its members, as Newton does."""
+    xc = O.bodies[cid].state.pos
+    F, T = Vector3(0, 0, 0), Vector3(0, 0, 0)
+    for m, _ in mem:
+        f = O.forces.f(m, True)
+        F += f
+        T += O.forces.t(m, True) + (O.bodies[m].state.pos - xc).cross(f)
+    return F, T
+
+
+def step_velocities(k):
+    """{body id: (v_k, w_k)} of every sphere (members included): talus's end-of-step velocities."""
+    V = {}
+    for b, t, m, inertia in free:
+        s = O.bodies[b].state
+        if k == 0:
+            V[b] = (proj(s.vel), proj_w(s.angVel))
+        else:
+            V[b] = (proj(s.vel + (O.forces.f(b, True) / m + g) * (0.5 * dt)),
+                    proj_w(s.angVel + O.forces.t(b, True) * (0.5 * dt / inertia)))
+    for cid, mem, M, Ic in clumps:
+        s = O.bodies[cid].state
+        if k == 0:
+            vc, wc = proj(s.vel), proj_w(s.angVel)
+        else:
+            F, T = clump_loads(cid, mem)
+            vc = proj(s.vel + (F / M + g) * (0.5 * dt))
+            wc = proj_w(s.angVel + T * (0.5 * dt / Ic))
+        for m, _ in mem:
+            V[m] = (vc + wc.cross(O.bodies[m].state.pos - s.pos), wc)
+    return V
+
+
+def energies(V):
+    ke, pe = [], []
+    for b, (v, w) in V.items():
+        m, inertia = mass_inertia[b]
+        ke.append(0.5 * m * v.squaredNorm() + 0.5 * inertia * w.squaredNorm())
+        pe.append(-m * g.dot(O.bodies[b].state.pos))
+    return math.fsum(ke), math.fsum(pe)
+
+
+def fmt(x):
+    return "%.17g" % float(x)
+
+
+def write_row(k, V, ke):
+    n_contacts = 0
+    nw = len(wall_ids)
+    tq = [Vector3(0, 0, 0) for _ in range(nw)]
+    fw = [Vector3(0, 0, 0) for _ in range(nw)]
+    for I in O.interactions.all(True):
+        geo, ph = I.geom, I.phys
+        if geo is None or ph is None:
+            continue
+        pen = geo.penetrationDepth
+        if not pen > 0.0:
+            continue
+        n_contacts += 1
+        w1, w2 = wall_of.get(I.id1), wall_of.get(I.id2)
+        if w1 is None and w2 is None:
+            continue
+        nrm = geo.normal                       # from id1 to id2
+        if hertz:
+            f12 = ph.normalForce + ph.shearForce   # the force on id2
+        else:
+            f12 = viscel_force(I, geo, ph)
+        if w1 is not None:
+            w, s, fwall, n_ws = w1, I.id2, -f12, nrm
+        else:
+            w, s, fwall, n_ws = w2, I.id1, f12, -nrm
+        p = O.bodies[s].state.pos - n_ws * (radius_of[s] - arm * pen)
+        fw[w] += fwall
+        tq[w] += p.cross(fwall)
+    cols = [fmt(k * dt), str(k), ctl["name"], fmt(ke), str(n_contacts)]
+    for i in range(nw):
+        if removed[i]:
+            cols += ["0"] * 6
+            continue
+        F = Vector3(0, 0, 0)
+        for j in wall_ids[i]:
+            F += O.forces.f(j, True)
+        stats["force_check"] = max(stats["force_check"], (F - fw[i]).norm())
+        cols += [fmt(F[0]), fmt(F[1]), fmt(F[2]), fmt(tq[i][0]), fmt(tq[i][1]), fmt(tq[i][2])]
+    if C["mass_below_z"] is not None:
+        z = C["mass_below_z"]
+        cols.append(fmt(math.fsum(info[t][0] for t, b in bid.items() if O.bodies[b].state.pos[2] < z)))
+    for t, b in tracked:
+        x = O.bodies[b].state.pos
+        v, w = V[b]
+        f = O.forces.f(b, True) + g * info[t][0]
+        cols += [fmt(q) for q in (x[0], x[1], x[2], v[0], v[1], v[2], w[0], w[1], w[2], f[0], f[1], f[2])]
+    out.write(",".join(cols) + "\n")
+    out.flush()
+    stats["rows"] += 1
+
+
+def viscel_force(I, geo, ph):
+    """ViscEl's force on id2 (Law2_ScGeom_ViscElPhys_Basic): the stored shear force is the
+    elastic part; while it sticks the law adds cs times the shear velocity of id1 against id2."""
+    n = geo.normal
+    fn = ph.normalForce
+    fs = Vector3(ph.shearForce)
+    b1, b2 = O.bodies[I.id1].state, O.bodies[I.id2].state
+    c = geo.contactPoint
+    vr = (b1.vel + b1.angVel.cross(c - b1.pos)) - (b2.vel + b2.angVel.cross(c - b2.pos))
+    vs = vr - n * vr.dot(n)
+    cap2 = fn.squaredNorm() * ph.tangensOfFrictionAngle ** 2
+    if fs.squaredNorm() < cap2 * (1 - 1e-12):
+        fs = fs + vs * ph.cs
+    return fn + fs
+
+
+# ---- phases: talus's step rules in the same arithmetic
+phases = C["phases"]
+ctl = {"phase": 0, "start": 0, "settle_end": None, "pe0": None, "E": {},
+       "name": phases[0]["name"] if phases else "end"}
+
+
+def crossed(k):
+    return math.floor((k * dt + 0.5 * dt) / iv) > math.floor(((k - 1) * dt + 0.5 * dt) / iv)
+
+
+def phase_end(s0, d):
+    start = s0 * dt
+    n = max(0, math.ceil(d / dt - 0.5))
+    while n > 0 and ((s0 + n - 1) * dt - start) >= d - 0.5 * dt:
+        n -= 1
+    while ((s0 + n) * dt - start) < d - 0.5 * dt:
+        n += 1
+    return s0 + n
+
+
+def first_step(t, lo):
+    """The least step k >= lo with k dt >= t - dt/2."""
+    k = max(lo, math.ceil(t / dt - 0.5))
+    while k > lo and (k - 1) * dt >= t - 0.5 * dt:
+        k -= 1
+    while k * dt < t - 0.5 * dt:
+        k += 1
+    return k
+
+
+def ke_phase_open():
+    if ctl["phase"] >= len(phases):
+        return False
+    return phases[ctl["phase"]]["frac"] is not None and ctl["settle_end"] is None
+
+
+def hook():
+    k = O.iter
+    row_due = k == 0 or crossed(k)
+    ke_due = k == 0 or (ke_phase_open() and k % 20 == 0)
+    if row_due or ke_due:
+        V = step_velocities(k)
+        ke, pe = energies(V)
+        if ke_due:
+            ctl["E"][k] = (ke, pe)
+        if k == 0:
+            ctl["pe0"] = pe
+        if row_due:
+            write_row(k, V, ke)
+    if k == 0:
+        # v(-1/2) = v_0 - dt/2 a_0: leapfrog from here is velocity Verlet from v_0
+        for b, t, m, inertia in free:
+            s = O.bodies[b].state
+            s.vel = proj(s.vel - (O.forces.f(b, True) / m + g) * (0.5 * dt))
+            s.angVel = proj_w(s.angVel - O.forces.t(b, True) * (0.5 * dt / inertia))
+        for cid, mem, M, Ic in clumps:
+            s = O.bodies[cid].state
+            F, T = clump_loads(cid, mem)
+            s.vel = proj(s.vel - (F / M + g) * (0.5 * dt))
+            s.angVel = proj_w(s.angVel - T * (0.5 * dt / Ic))
+
+
+__main__._talus_hook = hook
+
+
+def erase(i):
+    if not removed[i]:
+        for j in wall_ids[i]:
+            O.bodies.erase(j)
+        removed[i] = True
+
+
+def advance_phase(K):
+    """Simulation::advance_phase at the end of step K."""
+    if ctl["phase"] >= len(phases):
+        return
+    p = phases[ctl["phase"]]
+    done = (K * dt - ctl["start"] * dt) >= p["duration"] - 0.5 * dt
+    if p["frac"] is not None:
+        if ctl["settle_end"] is None and K % 20 == 0:
+            ke, pe = ctl["E"][K]
+            drop = ctl["pe0"] - pe
+            if drop > 0.0 and ke < p["frac"] * drop:
+                ctl["settle_end"] = K * dt + p["settle"]
+                print("talus export: phase %s settled at step %d" % (p["name"], K))
+        if ctl["settle_end"] is not None:
+            done = done or K * dt >= ctl["settle_end"] - 0.5 * dt
+    if done:
+        for i in p["remove"]:
+            erase(i)
+        ctl["phase"] += 1
+        ctl["start"] = K
+        ctl["settle_end"] = None
+        ctl["name"] = phases[ctl["phase"]]["name"] if ctl["phase"] < len(phases) else "end"
+        print("talus export: phase %s ended at step %d" % (p["name"], K))
+
+
+def next_event(K):
+    """The least step > K at which a phase can end, a KE test falls or a wall goes."""
+    p = phases[ctl["phase"]]
+    cand = [phase_end(ctl["start"], p["duration"])]
+    if p["frac"] is not None:
+        if ctl["settle_end"] is None:
+            lo = K + 1
+            cand.append(lo + (-lo) % 20)
+        else:
+            cand.append(first_step(ctl["settle_end"], K + 1))
+    cand += [s for s in removal.values() if s > K]
+    return max(K + 1, min(cand))
+
+
+removal = {i: first_step(w["remove_at"], 1) for i, w in enumerate(C["walls"]) if w["remove_at"] is not None}
+
+O.engines = [
+    ForceResetter(),
+    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Wall_Aabb(), Bo1_Facet_Aabb()], verletDist=0.5 * C["skin"]),
+    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Wall_Sphere_ScGeom(hertzian=True),
+                     Ig2_Facet_Sphere_ScGeom(hertzian=True)], [ip2], [law2]),
+    PyRunner(command="_talus_hook()", iterPeriod=1, initRun=True),
+    NewtonIntegrator(damping=0.0, gravity=g),
+]
+
+lo, hi = Vector3(*C["domain"][0]), Vector3(*C["domain"][1])
+K = -1
+if not phases:
+    O.run(1, True)
+    K = 0
+while ctl["phase"] < len(phases):
+    n = next_event(K)
+    O.run(n - K, True)       # iterations K+1 .. n
+    K = n
+    for t, b in bid.items():
+        x = O.bodies[b].state.pos
+        if any(not (lo[c] <= x[c] <= hi[c]) for c in range(3)):
+            out.close()
+            sys.exit("talus export: particle %d left the domain at step %d: (%g, %g, %g)" % (t, K, x[0], x[1], x[2]))
+    for i, s in removal.items():
+        if s == K:
+            erase(i)
+    advance_phase(K)
+out.close()
+print("TALUS-EXPORT-DONE step=%d rows=%d force_check=%.3g" % (K, stats["rows"], stats["force_check"]))
