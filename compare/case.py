@@ -15,7 +15,9 @@ Tolerances come from the case's `[compare]` section (defaults: figures 0.02 rela
 series 0.05 of the range, window means 0.02 of the range). Writes report.md (a plot per
 probe column), figures.json and the runs into DIR (default out/compare/<case name>);
 exits 1 when anything is outside tolerance, 2 when an engine cannot run the case.
-YADE: the exporter does not write YADE scripts yet (`yade_cases/` covers SC and H1).
+With both references, LIGGGHTS is also checked against YADE, and where they disagree talus
+runs once per convention option (`--set contact.damping=yade`, ...) to name the option
+that explains it (`--no-explain` skips this).
 """
 
 import argparse
@@ -53,9 +55,10 @@ def run(cmd, log, cwd=None):
         raise EngineError(f"{' '.join(map(str, cmd))} failed (exit {p.returncode}); log {log}:\n{Path(log).read_text()[-1500:]}")
 
 
-def run_talus(case, convention, out):
+def run_talus(case, convention, out, extra=()):
     out.mkdir(parents=True, exist_ok=True)
-    run([TALUS, "run", case, "--out", out, "--quiet", "--set", f"contact.convention={convention}"], out / "talus.log")
+    sets = [a for kv in extra for a in ("--set", kv)]
+    run([TALUS, "run", case, "--out", out, "--quiet", "--set", f"contact.convention={convention}", *sets], out / "talus.log")
     return read_probes(out / "probes.csv"), json.loads((out / "summary.json").read_text())
 
 
@@ -67,6 +70,78 @@ def run_reference(case, engine, out):
     else:
         run(["yade", "-n", "-j", "1", "-x", "talus.py"], out / "run.log", cwd=out)
     return read_probes(out / "probes.csv")
+
+
+# Where LIGGGHTS's and YADE's conventions differ: each option, its YADE value for
+# `talus run --set`, and the models it matters for (contact/conventions.rs `resolve`).
+# (Friction mixing, mean against min, differs only between different materials.)
+CONVENTION_OPTIONS = [
+    ("contact.damping=yade", "Hertz damping: YADE's Thornton fit of restitution against LIGGGHTS's ratio", {"hertz"}),
+    ("contact.end_of_contact=clip", "end of contact: normal force clipped at 0 (YADE) against tensile (LIGGGHTS)", {"hertz", "hooke"}),
+    ("contact.tangential=incremental", "tangential history: incremented shear force (YADE) against total displacement (LIGGGHTS)", {"hertz", "hooke"}),
+    ("contact.shear_kinematics=full_radii", "shear kinematics: full radii (YADE's Mindlin) against the contact point (LIGGGHTS)", {"hertz"}),
+    ("contact.wall_contact_point=surface", "wall contact point: on the surface (YADE) against mid-overlap (LIGGGHTS)", {"hertz", "hooke"}),
+]
+
+
+def explain(case_path, case, checks, ts_l, ft_l, rs_y, fr_y, summary, tol, out):
+    """For each check where LIGGGHTS and YADE disagree: run talus in LIGGGHTS's convention
+    with one YADE option at a time (and, where no single option explains a check, two at a
+    time), and name the option or pair that closes most of the gap between talus[liggghts]
+    and YADE (the fraction closed is in the report)."""
+    from itertools import combinations
+
+    bad = [c for c in checks if not c["ok"] and c["kind"] in ("figure", "series")]
+    if not bad:
+        return []
+    model = case.get("contact", {}).get("model", "hertz")
+    opts = [(o, what) for o, what, models in CONVENTION_OPTIONS if model in models]
+    runs = {}
+
+    def switched(combo):
+        if combo not in runs:
+            tag = "+".join(o.split("=")[0].split(".")[1] for o in combo)
+            o = out / f"talus-liggghts+{tag}"
+            s, summ = run_talus(case_path, "liggghts", o, list(combo))
+            runs[combo] = (s, figures_of(s, case, summ, o))
+        return runs[combo]
+
+    def dev(c, s, f):
+        name = c["name"]
+        if c["kind"] == "figure":
+            return abs(f.get(name, math.nan) - fr_y[name])
+        if name not in s:
+            return math.nan
+        one = {"time_s": s["time_s"], name: s[name]}
+        return series_checks(one, rs_y, dict(tol, ignore=[], windows=[], series={}))[0]["deviation"]
+
+    def closed(c, base, combo):
+        s, f = switched(combo)
+        d = dev(c, s, f)
+        return (base - d) / base if base > 0 and d == d else 0.0
+
+    what_of = dict(opts)
+    rows = []
+    for c in bad:
+        base = dev(c, ts_l, ft_l)
+        tried = [((o,), closed(c, base, (o,))) for o, _ in opts]
+        best = max(tried, key=lambda x: x[1]) if tried else None
+        if best is None or best[1] <= 0.5:
+            pairs = [(combo, closed(c, base, combo)) for combo in combinations([o for o, _ in opts], 2)]
+            if pairs:
+                bp = max(pairs, key=lambda x: x[1])
+                if best is None or bp[1] > best[1]:
+                    best = bp
+        if best is not None and best[1] > 0.5:
+            names = " and ".join(what_of[o] for o in best[0])
+            sets = " ".join(f"`{o}`" for o in best[0])
+            verdict = f"{names} ({sets} closes {100 * best[1]:.0f}% of talus[liggghts]'s gap to YADE)"
+            by = list(best[0])
+        else:
+            verdict = "no convention option, alone or in pairs, explains it" + (f" (best: {' '.join(best[0])}, {100 * best[1]:.0f}%)" if best else "")
+            by = None
+        rows.append({"kind": c["kind"], "name": c["name"], "deviation": c["deviation"], "explained_by": by, "verdict": verdict})
+    return rows
 
 
 def collision_figures(s, case):
@@ -141,12 +216,56 @@ def hopper_figures(s, case, total_mass):
     return fig
 
 
-def figures_of(s, case, summary):
+def read_final(folder):
+    """The final particle state an engine wrote: final.csv (talus, YADE) or final.dump (LIGGGHTS)."""
+    folder = Path(folder)
+    if (folder / "final.csv").exists():
+        d = np.genfromtxt(folder / "final.csv", delimiter=",", names=True)
+        return np.stack([d["x"], d["y"], d["z"]], axis=1), d["radius"]
+    if (folder / "final.dump").exists():
+        lines = (folder / "final.dump").read_text().splitlines()
+        k = max(i for i, l in enumerate(lines) if l.startswith("ITEM: ATOMS"))
+        cols = lines[k].split()[2:]
+        a = np.array([[float(x) for x in l.split()] for l in lines[k + 1:] if l.strip()])
+        c = {n: a[:, i] for i, n in enumerate(cols)}
+        return np.stack([c["x"], c["y"], c["z"]], axis=1), c["radius"]
+    raise EngineError(f"{folder}: no final.csv or final.dump (the case needs output.final_state = true)")
+
+
+def pile_figures(x, r, case):
+    """A pile's figures from the final positions: its height (the highest sphere top above
+    the floor) and its angle of repose. The free surface is the highest sphere top in rings
+    about the pile's axis, one mean diameter wide; the angle is that of the least-squares
+    line through the rings whose surface lies between 20% and 80% of the height (so neither
+    the flat top nor the loose toe counts)."""
+    a = case["analysis"]
+    cx, cy = a["center"]
+    z0 = a.get("floor_z", 0.0)
+    rho = np.hypot(x[:, 0] - cx, x[:, 1] - cy) if a.get("profile", "radial") == "radial" else x[:, 0] - cx
+    top = x[:, 2] + r - z0
+    w = 2.0 * r.mean()
+    ring = np.floor(rho / w).astype(int)
+    rings = np.arange(ring.max() + 1)
+    surf = np.array([top[ring == k].max() if (ring == k).sum() >= 3 else np.nan for k in rings])
+    height = float(np.nanmax(surf))
+    sel = (surf >= 0.2 * height) & (surf <= 0.8 * height)
+    fig = {"pile_height_m": height}
+    if sel.sum() >= 3:
+        slope = np.polyfit((rings[sel] + 0.5) * w, surf[sel], 1)[0]
+        fig["angle_of_repose_deg"] = float(np.degrees(np.arctan(-slope)))
+    # how far the spheres ran: the distance holding 95% of them
+    fig["runout_95_m"] = float(np.quantile(rho, 0.95))
+    return fig
+
+
+def figures_of(s, case, summary, folder=None):
     kind = case.get("analysis", {}).get("kind")
     if kind == "collision":
         return collision_figures(s, case)
     if kind == "hopper":
         return hopper_figures(s, case, summary["total_mass_kg"])
+    if kind == "pile" and folder is not None:
+        return pile_figures(*read_final(folder), case)
     return {}
 
 
@@ -226,6 +345,8 @@ def main(argv=None):
     ap.add_argument("case", type=Path)
     ap.add_argument("--engines", default="talus,liggghts")
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--no-explain", action="store_true",
+                    help="with both references: do not run talus once per convention option to explain where they disagree")
     a = ap.parse_args(argv)
     engines = [e.strip() for e in a.engines.split(",") if e.strip()]
     refs = [e for e in engines if e != "talus"]
@@ -248,17 +369,26 @@ def main(argv=None):
     out = a.out or Path("out") / "compare" / a.case.stem
     out.mkdir(parents=True, exist_ok=True)
     result = {"case": str(a.case), "tolerances": tol, "engines": {}, "checks": {}}
-    talus_series, ref_series = {}, {}
+    talus_series, ref_series, kept = {}, {}, {}
     try:
         for ref in refs:
             conv = CONVENTION[ref]
             ts, summary = run_talus(a.case, conv, out / f"talus-{conv}")
             rs = run_reference(a.case, ref, out / ref)
             talus_series[f"talus[{conv}]"], ref_series[ref] = ts, rs
-            ft, fr = figures_of(ts, case, summary), figures_of(rs, case, summary)
+            ft, fr = figures_of(ts, case, summary, out / f"talus-{conv}"), figures_of(rs, case, summary, out / ref)
+            kept[ref] = (ts, ft, rs, fr, summary)
             result["engines"][f"talus[{conv}]"] = ft
             result["engines"][ref] = fr
             result["checks"][ref] = figure_checks(ft, fr, tol) + series_checks(ts, rs, tol)
+        if "liggghts" in kept and "yade" in kept:
+            # the references against each other (LIGGGHTS as the measured side), and
+            # where they disagree, which convention explains it
+            ts_l, ft_l, rs_l, fr_l, summary = kept["liggghts"]
+            _, _, rs_y, fr_y, _ = kept["yade"]
+            cross = figure_checks(fr_l, fr_y, tol) + series_checks(rs_l, rs_y, tol)
+            why = [] if a.no_explain else explain(a.case, case, cross, ts_l, ft_l, rs_y, fr_y, summary, tol, out)
+            result["references"] = {"checks": cross, "explained": why}
     except EngineError as e:
         print(f"compare: {e}", file=sys.stderr)
         return 2
@@ -280,6 +410,20 @@ def main(argv=None):
         for c in cs:
             lines.append(f"| {c['kind']} | {c['name']} | {c['deviation']:.3g} | {c['tolerance']:g} | {'ok' if c['ok'] else '**OUTSIDE**'} |")
         lines.append("")
+    if "references" in result:
+        cross = result["references"]["checks"]
+        n_bad = sum(not c["ok"] for c in cross)
+        lines += ["## LIGGGHTS against YADE: where the references disagree", "",
+                  f"{len(cross) - n_bad} of {len(cross)} checks agree within the case's tolerances "
+                  "(reported, not failures: the two codes differ by their conventions). For each that does not, "
+                  "talus ran in LIGGGHTS's convention with one YADE option at a time (then two); the option "
+                  "or pair that closes most of talus[liggghts]'s gap to YADE is named. In a chaotic flow any two runs differ by their "
+                  "spread, so an attribution means something only where the gap is larger than that.", ""]
+        if result["references"]["explained"]:
+            lines += ["| check | name | deviation | which convention explains it |", "|---|---|---|---|"]
+            for r in result["references"]["explained"]:
+                lines.append(f"| {r['kind']} | {r['name']} | {r['deviation']:.3g} | {r['verdict']} |")
+            lines.append("")
     lines += ["## Plots", ""] + [f"![{c}](plots/{p.name})" for c, p in plots.items()]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     for n, f in result["engines"].items():

@@ -86,6 +86,10 @@ def run_talus(case_path, case, out, steps):
         if k in NOT_PHYSICS or isinstance(v, (str, dict, list)) or v is None:
             continue
         figures[k] = v
+    if case.get("analysis", {}).get("kind") == "pile" and not steps:
+        from .case import pile_figures, read_final
+
+        figures.update(pile_figures(*read_final(out), case))
     series = {}
     probes = out / "probes.csv"
     if probes.exists():

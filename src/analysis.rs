@@ -106,6 +106,15 @@ impl Analysis {
         };
         Ok(match &case.analysis {
             None => Analysis::None,
+            Some(AnalysisSection::Pile { profile, .. }) => {
+                if profile != "radial" && profile != "x" {
+                    return Err(TalusError::Input(format!("{path}: analysis.profile = \"{profile}\": must be \"radial\" or \"x\"")));
+                }
+                if !case.output.final_state {
+                    return Err(TalusError::Input(format!("{path}: analysis.kind = \"pile\": needs output.final_state = true (the angle of repose is measured from final.csv)")));
+                }
+                Analysis::None
+            }
             Some(AnalysisSection::Collision { particle, wall, partner }) => {
                 let i = particle_index(*particle, "particle")?;
                 let (n, wall, partner) = match (wall, partner) {

@@ -507,6 +507,12 @@ pub struct OutputSection {
     pub snapshot_interval: Option<f64>,
     /// Checkpoint interval (s); a checkpoint is always written at the end.
     pub checkpoint_interval: Option<f64>,
+    /// Write `final.csv` (id, x, y, z, vx, vy, vz, radius of every particle, in
+    /// id order) at the end of the run; the exported decks and scripts write
+    /// the same file, so figures of the final state (a pile's angle of repose)
+    /// are measured alike in every engine.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub final_state: bool,
 }
 
 impl Default for OutputSection {
@@ -516,6 +522,7 @@ impl Default for OutputSection {
             mass_below_z: None,
             track: vec![],
             snapshot_interval: None,
+            final_state: false,
             checkpoint_interval: None,
         }
     }
@@ -610,6 +617,25 @@ pub enum AnalysisSection {
         #[serde(default = "default_window")]
         fill_window: f64,
     },
+    /// A pile on a floor: its angle of repose and height, measured from the
+    /// final state (`output.final_state`, `final.csv`) by `python -m compare`
+    /// alike for every engine (compare/case.py `pile_figures`).
+    Pile {
+        /// How the free surface is profiled: "radial" (a conical pile: height
+        /// against the distance from `center`) or "x" (a pile against a wall:
+        /// height against x - center.x).
+        #[serde(default = "default_profile")]
+        profile: String,
+        /// The pile's axis, (x, y) (m).
+        center: [f64; 2],
+        /// Height of the floor (m).
+        #[serde(default)]
+        floor_z: f64,
+    },
+}
+
+fn default_profile() -> String {
+    "radial".into()
 }
 
 fn default_window() -> f64 {

@@ -165,6 +165,41 @@ impl Observer for SnapshotLog {
     }
 }
 
+/// `final.csv` at the end of the run (`output.final_state`): every particle in
+/// id order, gathered to rank 0 and replaced atomically.
+pub struct FinalState {
+    path: PathBuf,
+}
+
+impl FinalState {
+    pub fn new(dir: &Path) -> FinalState {
+        FinalState { path: dir.join("final.csv") }
+    }
+}
+
+impl Observer for FinalState {
+    fn after_step(&mut self, _sim: &mut Simulation, _t_prev: f64) -> Result<(), TalusError> {
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, _summary: &mut Map<String, Value>) -> Result<(), TalusError> {
+        use std::io::Write as _;
+        let (mut recs, _) = sim.parallel().gather_all(sim.particles(), &sim.state().gear);
+        let r = if sim.parallel().comm.is_root() {
+            recs.sort_unstable_by_key(|r| r.id);
+            crate::durable::write_atomic(&self.path, |w| {
+                writeln!(w, "id,x,y,z,vx,vy,vz,radius")?;
+                for r in &recs {
+                    writeln!(w, "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e}", r.id, r.pos.x, r.pos.y, r.pos.z, r.vel.x, r.vel.y, r.vel.z, r.radius)?;
+                }
+                Ok(())
+            })
+        } else {
+            Ok(())
+        };
+        sim.parallel().collective(r)
+    }
+}
+
 /// `checkpoint.bin` every `output.checkpoint_interval`.
 pub struct Checkpoints {
     path: PathBuf,

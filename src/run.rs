@@ -6,7 +6,7 @@ use crate::case::Case;
 use crate::checkpoint::{read as read_checkpoint, write as write_checkpoint};
 use crate::durable::write_atomic;
 use crate::error::TalusError;
-use crate::observe::{AnalysisLog, Checkpoints, Observer, ProbeLog, Progress, RankLog, SnapshotLog};
+use crate::observe::{AnalysisLog, Checkpoints, FinalState, Observer, ProbeLog, Progress, RankLog, SnapshotLog};
 use crate::output::{Probes, Snapshots};
 use crate::parallel::comm::Comm;
 use crate::sim::Simulation;
@@ -84,6 +84,9 @@ fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Re
     }
     if let Some(iv) = sim.case().output.checkpoint_interval {
         obs.push(Box::new(Checkpoints::new(out, iv)));
+    }
+    if sim.case().output.final_state {
+        obs.push(Box::new(FinalState::new(out)));
     }
     if progress && root {
         let n = sim.particle_count() as f64;

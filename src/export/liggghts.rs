@@ -513,6 +513,12 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             }
         }
     }
+    if case.output.final_state {
+        // (ids in the dump are LIGGGHTS's: talus's + the shift above)
+        let _ = writeln!(w, "\n# output.final_state: every particle at the end");
+        let _ = writeln!(w, "dump fin all custom 1 final.dump id x y z vx vy vz radius\ndump_modify fin sort id");
+        let _ = writeln!(w, "run             0 post no\nundump fin");
+    }
     let _ = writeln!(w, "\nprint \"talus export: done at step ${{st}}\"");
     for n in notes.iter().skip(header_notes) {
         let _ = writeln!(w, "# Note: {n}");

@@ -408,6 +408,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         "interval": case.output.interval,
         "mass_below_z": case.output.mass_below_z,
         "track": case.output.track,
+        "final_state": case.output.final_state,
         "header": header,
     });
 

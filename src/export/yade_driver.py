@@ -387,4 +387,12 @@ while ctl["phase"] < len(phases):
             erase(i)
     advance_phase(K)
 out.close()
+if C["final_state"]:
+    # the state of step K: Newton has already moved every body to x(K+1) = x(K) + dt v(K+1/2)
+    with open("final.csv", "w") as fh:
+        fh.write("id,x,y,z,vx,vy,vz,radius\n")
+        for t in sorted(bid):
+            s = O.bodies[bid[t]].state
+            x = s.pos - s.vel * dt
+            fh.write("%d,%s,%s,%s,%s,%s,%s,%s\n" % (t, fmt(x[0]), fmt(x[1]), fmt(x[2]), fmt(s.vel[0]), fmt(s.vel[1]), fmt(s.vel[2]), fmt(info[t][2])))
 print("TALUS-EXPORT-DONE step=%d rows=%d force_check=%.3g" % (K, stats["rows"], stats["force_check"]))
