@@ -67,6 +67,10 @@ def tolerances(case):
     return c
 
 
+def probes_path(out):
+    return out / "probes.csv"
+
+
 def run_talus(case_path, case, out, steps):
     """Run talus on the case into `out`; returns (figures, series, state_hash)."""
     if not TALUS.exists():
@@ -86,6 +90,10 @@ def run_talus(case_path, case, out, steps):
         if k in NOT_PHYSICS or isinstance(v, (str, dict, list)) or v is None:
             continue
         figures[k] = v
+    if case.get("analysis", {}).get("kind") == "drag" and not steps and probes_path(out).exists():
+        from .case import drag_figures, read_probes
+
+        figures.update(drag_figures(read_probes(out / "probes.csv"), case))
     if case.get("analysis", {}).get("kind") == "pile" and not steps:
         from .case import pile_figures, read_final
 

@@ -2,7 +2,7 @@
 # Physics regression against the reference codes: every SC set-up with both models,
 # through the compare harness (hand-written decks), then the case files exported by
 # `talus export` to LIGGGHTS and YADE (python -m compare CASE.toml): the SC cases, the
-# pile, H1-small. Fails on any figure outside tolerance.
+# pile, the shear cell, the c1 disc bed (2D), H1-small. Fails on any figure outside tolerance.
 #   scripts/compare_all.sh [--full] [SC_ENGINES [H1_ENGINES]]
 # --full also runs H1-small through the hand-written decks, and H1-paper (100,000
 # spheres; tens of minutes per engine).
@@ -24,10 +24,11 @@ for setup in SC-wall SC-pair SC-oblique; do
 done
 # the case files themselves, exported (talus export) to LIGGGHTS and YADE and compared
 # column by column; where the two references disagree, the convention that explains it
-# (H1-small: not explained here, 5 more talus runs; the hand-written H1 decks in --full)
-for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke pile H1-small; do
+# (H1-small and the shear cell: not explained here, up to 15 more talus runs each;
+# the hand-written H1 decks in --full)
+for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke pile shear-cell drag-c1-bed1 H1-small; do
   extra=()
-  [ "$c" = H1-small ] && extra=(--no-explain)
+  case "$c" in H1-small|shear-cell) extra=(--no-explain) ;; esac
   python3 -m compare "cases/$c.toml" --engines "$h1_engines" "${extra[@]}" --out "$out/case-$c" > "$out-case-$c.log" 2>&1 \
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   echo "compare cases/$c.toml ($h1_engines, exported): within tolerance"

@@ -106,6 +106,16 @@ impl Analysis {
         };
         Ok(match &case.analysis {
             None => Analysis::None,
+            Some(AnalysisSection::Drag { wall, window }) => {
+                let w = wall_index(wall, "wall")?;
+                if Vec3::from(case.walls[w].velocity) == Vec3::zeros() {
+                    return Err(TalusError::Input(format!("{path}: analysis.wall = \"{wall}\": the wall does not move, so it feels no drag")));
+                }
+                if !(window[0] >= 0.0 && window[1] > window[0]) {
+                    return Err(TalusError::Input(format!("{path}: analysis.window = {window:?}: must be [from, to] displacements (m), 0 <= from < to")));
+                }
+                Analysis::None
+            }
             Some(AnalysisSection::Pile { profile, .. }) => {
                 if profile != "radial" && profile != "x" {
                     return Err(TalusError::Input(format!("{path}: analysis.profile = \"{profile}\": must be \"radial\" or \"x\"")));

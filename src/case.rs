@@ -617,6 +617,14 @@ pub enum AnalysisSection {
         #[serde(default = "default_window")]
         fill_window: f64,
     },
+    /// The drag on a moving wall (the drag paper's cylinder): the granules'
+    /// force against the wall's motion, averaged over the wall's displacement
+    /// from `window[0]` to `window[1]` (m), measured from the probes by `python
+    /// -m compare` (compare/case.py `drag_figures`).
+    Drag {
+        wall: String,
+        window: [f64; 2],
+    },
     /// A pile on a floor: its angle of repose and height, measured from the
     /// final state (`output.final_state`, `final.csv`) by `python -m compare`
     /// alike for every engine (compare/case.py `pile_figures`).

@@ -394,13 +394,13 @@ impl Observer for DragSeries {
     }
 }
 
-/// Prepare one bed and drag the cylinder through it.
-pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
+/// Prepare one bed: the granules grow to their full size, then settle. Returns
+/// the simulation at the start of the drag and the bed's case.
+fn prepare_bed(dc: &DragCase, seed: u64) -> Result<(Simulation, Case), TalusError> {
     let d = &dc.drag;
     let (case, radii) = dc.bed_case(seed)?;
-    let mut sim = Simulation::new(case)?;
+    let mut sim = Simulation::new(case.clone())?;
     let dt = sim.dt();
-    let cyl = sim.wall_index("cylinder").expect("made above");
     // growth (friction as set)
     let mut grow_mat = dc.material.clone();
     grow_mat.friction = d.growth_friction.unwrap_or(dc.material.friction);
@@ -416,6 +416,15 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     for _ in 0..(d.settle_time / dt).ceil() as u64 {
         sim.step()?;
     }
+    Ok((sim, case))
+}
+
+/// Prepare one bed and drag the cylinder through it.
+pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
+    let d = &dc.drag;
+    let (mut sim, _) = prepare_bed(dc, seed)?;
+    let dt = sim.dt();
+    let cyl = sim.wall_index("cylinder").expect("made by bed_case");
     // drag: the series is an observer of the steps
     let v = Vec3::new(0.0, d.cylinder_speed, 0.0);
     sim.set_wall_velocity(cyl, v);
@@ -429,6 +438,78 @@ pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
     let win: Vec<f64> = series.iter().filter(|(s, _)| *s >= a && *s <= b).map(|x| x.1).collect();
     let mean_drag = win.iter().sum::<f64>() / win.len().max(1) as f64;
     Ok(BedResult { seed, series, mean_drag, steps: sim.step_count(), state_hash: sim.state_hash(), snapshots })
+}
+
+/// Bed `seed` of a drag case as an ordinary case, for `talus run` and `talus
+/// export`: the granules as prepared (grown and settled) in `<id>-bed<seed>.csv`,
+/// and `<id>-bed<seed>.toml` with the container, the cylinder moving at the
+/// drag speed, and one phase, the drag (the cylinder's travel at its speed).
+/// The probes (every 1/300 of the drag) give the drag as the cylinder's force.
+/// Dumbbells keep their clumps; ellipses are refused (their angles are not in
+/// a particle file). Returns the case file written.
+pub fn write_bed_case(dc: &DragCase, seed: u64, out: &Path) -> Result<PathBuf, TalusError> {
+    let d = &dc.drag;
+    if d.shape == GranuleShape::Ellipse {
+        return Err(TalusError::Input(format!(
+            "{}: drag.shape = \"ellipse\": a bed of ellipses cannot be written as a particle file (their angles), so it is not written as a case",
+            dc.path.display()
+        )));
+    }
+    let (sim, mut case) = prepare_bed(dc, seed)?;
+    std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
+    let stem = format!("{}-bed{seed}", d.id);
+    let csv = out.join(format!("{stem}.csv"));
+    let p = sim.particles();
+    let mut idx: Vec<usize> = (0..p.owned()).collect();
+    idx.sort_unstable_by_key(|&i| p.id[i]);
+    let mut text = String::from("id,x,y,z,radius,vx,vy,vz,wx,wy,wz\n");
+    for &i in &idx {
+        let (x, v, w) = (p.pos[i], p.vel[i], p.omega[i]);
+        text.push_str(&format!(
+            "{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?}\n",
+            p.id[i], x.x, x.y, x.z, p.radius[i], v.x, v.y, v.z, w.x, w.y, w.z
+        ));
+    }
+    crate::durable::write_atomic(&csv, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+    case.particles.source = crate::case::ParticleSource::Csv(PathBuf::from(format!("{stem}.csv")));
+    // a compacted bed: granules press on each other
+    case.particles.overlap_tolerance = 0.5;
+    let cyl = case.walls.iter().position(|w| w.name == "cylinder").expect("made by bed_case");
+    case.walls[cyl].velocity = [0.0, d.cylinder_speed, 0.0];
+    let drag_time = d.travel / d.cylinder_speed;
+    case.phases = vec![PhaseSection::new("drag", drag_time)];
+    case.output.interval = drag_time / 300.0;
+    case.analysis = Some(crate::case::AnalysisSection::Drag { wall: "cylinder".into(), window: d.average_window });
+    let toml = out.join(format!("{stem}.toml"));
+    let head = format!(
+        "# Bed {seed} of drag case {} ({}), grown and settled by talus: the granules in {stem}.csv,\n\
+         # the cylinder pulled {} m at {} m/s. Written by `talus drag {} --bed-case {seed}`; run it with\n\
+         # `talus run`, export it with `talus export`. The drag is -cylinder_force_y_n.\n\n",
+        d.id,
+        dc.path.display(),
+        d.travel,
+        d.cylinder_speed,
+        dc.path.display()
+    );
+    let body = case.to_toml()?
+        + &format!(
+            "\n[compare]\n\
+             # one bed is one realisation of a dense granular flow: the engines agree on the mean\n\
+             # drag (within 5%) and on the loads in the mean over the drag window (within 10% of\n\
+             # each range), not force chain by force chain: instantaneous loads are held only\n\
+             # against gross errors (within their range). Tangential loads and torques on the\n\
+             # container, and the peak drag, fluctuate: compared in the plots, not checked.\n\
+             figure_rel = 0.05\n\
+             series_range = 1.0\n\
+             windows = [[{}, {}]]\n\
+             window_mean = 0.1\n\
+             ignore = [\"peak_drag_n\", \"kinetic_energy_j\", \"floor_force_x_n\", \"lid_force_x_n\", \"left_force_y_n\", \"right_force_y_n\",\n\
+             \"cylinder_force_x_n\", \"floor_torque_z_n_m\", \"lid_torque_z_n_m\", \"left_torque_z_n_m\", \"right_torque_z_n_m\", \"cylinder_torque_z_n_m\"]\n",
+            d.average_window[0] / d.cylinder_speed,
+            d.average_window[1] / d.cylinder_speed
+        );
+    crate::durable::write_atomic(&toml, |w| std::io::Write::write_all(w, (head + &body).as_bytes()))?;
+    Ok(toml)
 }
 
 /// Run a drag case over its beds; writes `summary.json` (`mean_drag_n`,

@@ -54,6 +54,10 @@ enum Cmd {
         /// Output folder (default: out/drag/<id>).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Do not drag: write bed SEED, grown and settled, as an ordinary case
+        /// (<id>-bed<SEED>.toml and .csv in the output folder) for `talus run` and `talus export`.
+        #[arg(long, value_name = "SEED")]
+        bed_case: Option<u64>,
     },
     /// Write a case as an input for a reference code (LIGGGHTS 3.8), with its particle and mesh files,
     /// writing the same probes as talus's probes.csv; what the code cannot run is refused naming the key.
@@ -169,9 +173,14 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Cmd::Drag { case, out } => {
+        Cmd::Drag { case, out, bed_case } => {
             let dc = talus::drag::DragCase::load(&case)?;
             let out = out.unwrap_or_else(|| PathBuf::from("out").join("drag").join(&dc.drag.id));
+            if let Some(seed) = bed_case {
+                let f = talus::drag::write_bed_case(&dc, seed, &out)?;
+                println!("talus: wrote {} (bed {seed} of drag case {}, at the start of the drag)", f.display(), dc.drag.id);
+                return Ok(ExitCode::SUCCESS);
+            }
             let s = talus::drag::run(&dc, &out)?;
             println!("talus: drag case {} finished; outputs in {}", dc.drag.id, out.display());
             for (k, v) in &s {

@@ -9,11 +9,13 @@
 //!
 //! - particles: `particles.data` (atom type = material index + 1, diameter,
 //!   density; velocities and spins), the very particles talus starts from;
-//! - walls: an STL mesh, or a plane that moves or is not normal to x, y or z
-//!   (written as a square mesh covering the domain), is a `mesh/surface/stress`
-//!   in one `wall/gran` fix, moving by `move/mesh linear`; a still plane normal
-//!   to an axis is a `primitive` wall in a fix of its own (`store_force` gives
-//!   its load), so it can be removed alone;
+//! - walls: an STL mesh, or a plane that slides within itself or is not
+//!   normal to x, y or z (written as a mesh across the domain,
+//!   sliding by its `surface_vel`), is a `mesh/surface/stress` in one
+//!   `wall/gran` fix; a still plane normal to an axis is a `primitive` wall in
+//!   a fix of its own (`store_force` gives its load), so it can be removed
+//!   alone. A wall moving otherwise is refused: this LIGGGHTS build stops in
+//!   `fix move/mesh`;
 //! - probes: one `fix print` for the whole run, every round(interval / dt)
 //!   steps, from step 0; the phase name is a string variable, a removed wall's
 //!   columns variables set to 0;
@@ -41,6 +43,9 @@ use crate::walls::Shape;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// Why a wall that moves (other than a plane sliding within itself) is refused.
+const MOVE_MESH: &str = "LIGGGHTS 3.8.0 as Debian builds it stops in `fix move/mesh` (\"Illegal situation in MultiNodeMesh::registerMove\"), so only still walls and planes sliding within themselves (a mesh with `surface_vel`) are exported";
+
 /// How a wall is written.
 #[derive(Clone, Debug)]
 enum Kind {
@@ -48,13 +53,18 @@ enum Kind {
     Mesh,
     /// A `primitive` plane in a fix of its own: axis (0 x, 1 y, 2 z) and offset.
     Primitive { axis: usize, at: f64 },
+    /// A ball (2D: a disc, the drag paper's cylinder): one atom of the wall's
+    /// type and radius, too heavy to feel its contacts (density 1e15), moved by
+    /// `fix move linear` and left out of the integration; its id.
+    Ball { atom: u64 },
 }
 
 struct W {
     name: String,
     kind: Kind,
     atom_type: usize,
-    velocity: Vec3,
+    /// A plane's velocity within itself: the mesh's `surface_vel` (a conveyor belt).
+    surface_vel: Vec3,
 }
 
 fn g(x: f64) -> String {
@@ -69,9 +79,6 @@ fn io(path: &Path, e: std::io::Error) -> TalusError {
 /// Refuse what LIGGGHTS 3.8 cannot run, naming the key.
 fn check(case: &Case) -> Result<(), TalusError> {
     let s = &case.simulation;
-    if s.dimension == Dimension::Two {
-        return Err(refuse(case, "simulation.dimension = 2", "the LIGGGHTS exporter writes 3D decks only so far (LIGGGHTS `dimension 2` is not exported yet)"));
-    }
     if s.integrator == IntegratorKind::Gear {
         return Err(refuse(case, "simulation.integrator = \"gear\"", "LIGGGHTS 3.8 integrates spheres with velocity Verlet (nve/sphere) only"));
     }
@@ -99,11 +106,12 @@ fn check(case: &Case) -> Result<(), TalusError> {
     }
     for (i, w) in case.walls.iter().enumerate() {
         match &w.shape {
-            WallShape::Disc(_) => {
-                return Err(refuse(case, &format!("wall[{i}].disc ({})", w.name), "LIGGGHTS 3.8 has no ball wall; give the ball as an STL mesh"));
-            }
             WallShape::Segment(_) | WallShape::Box(_) => {
-                return Err(refuse(case, &format!("wall[{i}].{} ({})", w.shape.key(), w.name), "2D walls are not exported to LIGGGHTS yet"));
+                return Err(refuse(
+                    case,
+                    &format!("wall[{i}].{} ({})", w.shape.key(), w.name),
+                    "LIGGGHTS 3.8 has no 2D segment wall; give the walls as planes",
+                ));
             }
             _ => {}
         }
@@ -111,13 +119,59 @@ fn check(case: &Case) -> Result<(), TalusError> {
     Ok(())
 }
 
-/// A square of side `size` through `point`, normal `n`, as a two-triangle mesh.
-fn square(point: Vec3, n: Vec3, size: f64) -> Mesh {
-    let a = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
-    let u = n.cross(&a).normalize() * (0.5 * size);
-    let v = n.cross(&u);
-    let c = [point - u - v, point + u - v, point + u + v, point - u + v];
-    Mesh::new(c.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).expect("a square is a valid mesh")
+/// A plane as a mesh inside the domain (LIGGGHTS stops on a mesh node outside
+/// the simulation box, and loses a mesh of two domain-wide triangles: "Mesh
+/// error - mesh empty"), an 8 x 8 grid of squares, two triangles each: for a
+/// plane normal to an axis, the domain's cross-section at the plane, shrunk
+/// by 1e-6 of its size; for any other plane, the square of side the domain's
+/// smallest extent centred where the plane meets the domain's centre line
+/// along its normal.
+fn plane_mesh(point: Vec3, n: Vec3, lo: Vec3, hi: Vec3) -> Mesh {
+    let axis = (0..3).find(|&k| n[k].abs() == 1.0);
+    let (origin, du, dv) = if let Some(k) = axis {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let e = 1e-6 * (hi - lo).norm();
+        let mut o = Vec3::zeros();
+        o[k] = point[k];
+        o[i] = lo[i] + e;
+        o[j] = lo[j] + e;
+        let (mut du, mut dv) = (Vec3::zeros(), Vec3::zeros());
+        du[i] = hi[i] - lo[i] - 2.0 * e;
+        dv[j] = hi[j] - lo[j] - 2.0 * e;
+        (o, du, dv)
+    } else {
+        let centre = 0.5 * (lo + hi);
+        let p = centre - n * (centre - point).dot(&n);
+        let side = (hi - lo).min() * (1.0 - 1e-6) / 2f64.sqrt();
+        let a = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+        let u = n.cross(&a).normalize() * side;
+        let v = n.cross(&u);
+        (p - 0.5 * (u + v), u, v)
+    };
+    const N: usize = 8;
+    let mut nodes = Vec::with_capacity((N + 1) * (N + 1));
+    for a in 0..=N {
+        for b in 0..=N {
+            nodes.push(origin + du * (a as f64 / N as f64) + dv * (b as f64 / N as f64));
+        }
+    }
+    // counter-clockwise about n
+    let ccw = du.cross(&dv).dot(&n) > 0.0;
+    let mut tris = Vec::with_capacity(2 * N * N);
+    for a in 0..N {
+        for b in 0..N {
+            let k = |x: usize, y: usize| (x * (N + 1) + y) as u32;
+            let (p00, p10, p11, p01) = (k(a, b), k(a + 1, b), k(a + 1, b + 1), k(a, b + 1));
+            if ccw {
+                tris.push([p00, p10, p11]);
+                tris.push([p00, p11, p01]);
+            } else {
+                tris.push([p00, p11, p10]);
+                tris.push([p00, p01, p11]);
+            }
+        }
+    }
+    Mesh::new(nodes, tris).expect("a grid of squares is a valid mesh")
 }
 
 pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
@@ -148,33 +202,56 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         notes.push("talus ids start at 0: LIGGGHTS ids are talus ids + 1 (probe columns keep talus's ids)".into());
     }
     let d = &case.simulation.domain;
+    let two_d = case.simulation.dimension == Dimension::Two;
+    // ball walls: atoms after the particles
+    let max_id = idx.iter().map(|&i| p.id[i] + shift).max().unwrap_or(0);
+    let mut balls = Vec::new();
+    for (i, w) in sim.walls().iter().enumerate() {
+        if let Shape::Disc(dc) = &w.shape {
+            let atom_type = case.material_index(&case.walls[i].material, "wall.material")? as usize + 1;
+            balls.push((i, max_id + 1 + balls.len() as u64, dc.center, dc.radius, atom_type, Vec3::from(case.walls[i].velocity)));
+        }
+    }
+    const BALL_DENSITY: f64 = 1e15;
     let mut data = String::new();
     let _ = writeln!(data, "LIGGGHTS data file: the initial particles of {} (exported by talus)\n", case.path.display());
-    let _ = writeln!(data, "{} atoms\n{} atom types\n", idx.len(), nmat);
+    let _ = writeln!(data, "{} atoms\n{} atom types\n", idx.len() + balls.len(), nmat);
     for k in 0..3 {
         let _ = writeln!(data, "{} {} {}lo {}hi", g(d.lo[k]), g(d.hi[k]), ["x", "y", "z"][k], ["x", "y", "z"][k]);
     }
     data.push_str("\nAtoms\n\n");
     for &i in &idx {
-        let rho = case.materials[p.material[i] as usize].density;
+        // in 2D LIGGGHTS takes the density per area (mass = pi r^2 rho): talus's mass is a sphere's
+        let rho = if two_d {
+            p.mass[i] / (std::f64::consts::PI * p.radius[i] * p.radius[i])
+        } else {
+            case.materials[p.material[i] as usize].density
+        };
         let x = p.pos[i];
         let _ = writeln!(data, "{} {} {} {} {} {} {}", p.id[i] + shift, p.material[i] + 1, g(2.0 * p.radius[i]), g(rho), g(x.x), g(x.y), g(x.z));
+    }
+    for &(_, id, c, r, t, _) in &balls {
+        let _ = writeln!(data, "{id} {t} {} {} {} {} {}", g(2.0 * r), g(BALL_DENSITY), g(c.x), g(c.y), g(c.z));
     }
     data.push_str("\nVelocities\n\n");
     for &i in &idx {
         let (v, w) = (p.vel[i], p.omega[i]);
         let _ = writeln!(data, "{} {} {} {} {} {} {}", p.id[i] + shift, g(v.x), g(v.y), g(v.z), g(w.x), g(w.y), g(w.z));
     }
+    for &(_, id, _, _, _, v) in &balls {
+        let _ = writeln!(data, "{id} {} {} {} 0 0 0", g(v.x), g(v.y), g(v.z));
+    }
     let data_path = out.join("particles.data");
     std::fs::write(&data_path, data).map_err(|e| io(&data_path, e))?;
     let mut files = vec![out.join("in.talus"), data_path];
 
     // walls
-    let size = 4.0 * (Vec3::from(d.hi) - Vec3::from(d.lo)).norm();
+    let (lo, hi) = (Vec3::from(d.lo), Vec3::from(d.hi));
     let mut walls = Vec::new();
     for (ws, w) in case.walls.iter().zip(sim.walls()) {
         let velocity = Vec3::from(ws.velocity);
         let atom_type = case.material_index(&ws.material, "wall.material")? as usize + 1;
+        let mut surface_vel = Vec3::zeros();
         let kind = match &w.shape {
             Shape::Plane(pl) => {
                 let n = pl.normal;
@@ -182,26 +259,46 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 match axis {
                     Some(axis) if velocity == Vec3::zeros() => Kind::Primitive { axis, at: pl.point[axis] },
                     _ => {
-                        let m = square(pl.point, n, size);
+                        // the mesh moves along the normal; the motion within the plane is its surface velocity
+                        let vn = n * velocity.dot(&n);
+                        surface_vel = velocity - vn;
+                        if vn.norm() > 0.0 {
+                            return Err(refuse(case, &format!("wall.{}.velocity", ws.name), MOVE_MESH));
+                        }
+                        let m = plane_mesh(pl.point, n, lo, hi);
                         let f = out.join("meshes").join(format!("{}.stl", ws.name));
                         std::fs::create_dir_all(out.join("meshes")).map_err(|e| io(&f, e))?;
                         m.write_stl(&f).map_err(|e| io(&f, e))?;
                         files.push(f);
-                        notes.push(format!("wall {}: the plane is a square mesh of side {size:.3} m (LIGGGHTS's primitive planes stand still and are normal to an axis)", ws.name));
+                        notes.push(format!(
+                            "wall {}: the plane is a mesh across the domain (LIGGGHTS's primitive planes stand still and are normal to an axis); it moves along its normal, and its motion within the plane is the mesh's surface velocity",
+                            ws.name
+                        ));
                         Kind::Mesh
                     }
                 }
             }
             Shape::Mesh(m) => {
+                if velocity != Vec3::zeros() {
+                    return Err(refuse(case, &format!("wall.{}.velocity", ws.name), MOVE_MESH));
+                }
                 let f = out.join("meshes").join(format!("{}.stl", ws.name));
                 std::fs::create_dir_all(out.join("meshes")).map_err(|e| io(&f, e))?;
                 m.write_stl(&f).map_err(|e| io(&f, e))?;
                 files.push(f);
                 Kind::Mesh
             }
+            Shape::Disc(_) => {
+                let atom = balls.iter().find(|b| b.0 == walls.len()).expect("listed above").1;
+                notes.push(format!(
+                    "wall {}: the ball is atom {atom} of density {BALL_DENSITY:e} (m* = the particle's mass), moved by fix move and not integrated; its load is the force and torque on that atom",
+                    ws.name
+                ));
+                Kind::Ball { atom }
+            }
             _ => unreachable!("refused above"),
         };
-        walls.push(W { name: ws.name.clone(), kind, atom_type, velocity });
+        walls.push(W { name: ws.name.clone(), kind, atom_type, surface_vel });
     }
 
     // the contact model words, shared by the pair style and the wall fixes
@@ -223,10 +320,28 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         let _ = writeln!(w, "# Note: {n}");
     }
     let header_notes = notes.len();
-    let _ = writeln!(w, "\nunits           si\natom_style      granular\natom_modify     map array\nboundary        f f f\nnewton          off\ncommunicate     single vel yes");
-    let _ = writeln!(w, "soft_particles  yes                      # softer materials than LIGGGHTS's floor are allowed");
+    let _ = writeln!(w, "\nunits           si\natom_style      granular\natom_modify     map array");
+    if two_d {
+        let _ = writeln!(w, "dimension       2\nboundary        f f p");
+    } else {
+        let _ = writeln!(w, "boundary        f f f");
+    }
+    let _ = writeln!(w, "newton          off\ncommunicate     single vel yes");
+    if case.materials.iter().any(|m| m.youngs_modulus < 5e6) {
+        let _ = writeln!(w, "soft_particles  yes                      # softer materials than LIGGGHTS's floor (5e6 Pa) are allowed");
+    }
+    if case.materials.iter().any(|m| m.youngs_modulus > 1e9) {
+        let _ = writeln!(w, "hard_particles  yes                      # stiffer materials than LIGGGHTS's ceiling (1e9 Pa) are allowed");
+    }
     let _ = writeln!(w, "read_data       particles.data");
     let _ = writeln!(w, "neighbor        {} bin\nneigh_modify    delay 0 every 1 check yes", g(skin));
+    // the particles (not the ball walls): integrated, under gravity, in the energies
+    let _ = writeln!(w, "group           grains id <= {max_id}");
+    for x in &walls {
+        if let Kind::Ball { atom } = x.kind {
+            let _ = writeln!(w, "group           {}_g id {atom}", x.name);
+        }
+    }
 
     // materials: one atom type each; pairs as talus mixes them in LIGGGHTS's convention
     let list = |f: &dyn Fn(usize) -> f64| (0..nmat).map(|k| g(f(k))).collect::<Vec<_>>().join(" ");
@@ -262,17 +377,19 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let gv = Vec3::from(case.simulation.gravity);
     if gv.norm() > 0.0 {
         let u = gv / gv.norm();
-        let _ = writeln!(w, "fix gravi all gravity {} vector {} {} {}", g(gv.norm()), g(u.x), g(u.y), g(u.z));
+        let _ = writeln!(w, "fix gravi grains gravity {} vector {} {} {}", g(gv.norm()), g(u.x), g(u.y), g(u.z));
     }
 
     // walls
     let meshes: Vec<&W> = walls.iter().filter(|x| matches!(x.kind, Kind::Mesh)).collect();
     let _ = writeln!(w, "\n# ---- walls (f_NAME[1..3]: force of the particles on a mesh, [4..6] torque about the origin)");
     for m in &meshes {
-        let _ = writeln!(w, "fix {0} all mesh/surface/stress file meshes/{0}.stl type {1}", m.name, m.atom_type);
-        if m.velocity != Vec3::zeros() {
-            let _ = writeln!(w, "fix {0}_move all move/mesh mesh {0} linear {1} {2} {3}", m.name, g(m.velocity.x), g(m.velocity.y), g(m.velocity.z));
-        }
+        let sv = if m.surface_vel != Vec3::zeros() {
+            format!(" surface_vel {} {} {}", g(m.surface_vel.x), g(m.surface_vel.y), g(m.surface_vel.z))
+        } else {
+            String::new()
+        };
+        let _ = writeln!(w, "fix {0} all mesh/surface/stress file meshes/{0}.stl type {1}{sv}", m.name, m.atom_type);
     }
     let mesh_fix = |w: &mut String, names: &[&str]| {
         if !names.is_empty() {
@@ -294,13 +411,25 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             let _ = writeln!(w, "fix {} all wall/gran {model} primitive type {} {plane} {} store_force yes {settings}", x.name, x.atom_type, g(at));
         }
     }
-    let _ = writeln!(w, "fix integr all nve/sphere");
+    let _ = writeln!(w, "fix integr grains nve/sphere");
+    if two_d {
+        let _ = writeln!(w, "fix e2d all enforce2d");
+    }
+    for x in &walls {
+        if let Kind::Ball { .. } = x.kind {
+            let v = balls.iter().find(|b| case.walls[b.0].name == x.name).expect("listed").5;
+            let _ = writeln!(w, "fix {0}_move {0}_g move linear {1} {2} {3}", x.name, g(v.x), g(v.y), g(v.z));
+        }
+    }
 
     // probes
     let _ = writeln!(w, "\n# ---- probes: the columns of talus's probes.csv");
     let _ = writeln!(w, "variable t equal step*{}\nvariable st equal step", g(dt));
-    let _ = writeln!(w, "compute ke_t all ke\ncompute ke_r all erotate/sphere\nvariable ke equal c_ke_t+c_ke_r");
-    let _ = writeln!(w, "variable pe_atom atom -mass*({}*x+{}*y+{}*z)\ncompute pe_sum all reduce sum v_pe_atom\nvariable pe equal c_pe_sum", g(gv.x), g(gv.y), g(gv.z));
+    let _ = writeln!(w, "compute ke_t grains ke\ncompute ke_r grains erotate/sphere\nvariable ke equal c_ke_t+c_ke_r");
+    let _ = writeln!(w, "variable pe_atom atom -mass*({}*x+{}*y+{}*z)\ncompute pe_sum grains reduce sum v_pe_atom\nvariable pe equal c_pe_sum", g(gv.x), g(gv.y), g(gv.z));
+    if !balls.is_empty() {
+        let _ = writeln!(w, "compute tqa all property/atom tqx tqy tqz");
+    }
     let _ = writeln!(w, "compute radius all property/atom radius");
     let _ = writeln!(w, "compute pc all contact/atom\ncompute pc_sum all reduce sum c_pc\nvariable n_pair equal floor(c_pc_sum/2+0.5)");
     let wall_vars = |w: &mut String, x: &W, on: bool| {
@@ -317,6 +446,18 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 for (k, q) in ["fx", "fy", "fz", "tx", "ty", "tz"].iter().enumerate() {
                     let _ = writeln!(w, "variable {n}_{q} equal f_{n}[{}]", k + 1);
                 }
+            }
+            Kind::Ball { atom } => {
+                // the force of the particles on the ball is the force on its atom; the torque
+                // about the origin x x f plus the torque of the contacts about its centre
+                let _ = writeln!(w, "compute {n}_sum {n}_g reduce sum fx fy fz c_tqa[1] c_tqa[2] c_tqa[3]");
+                for (k, q) in ["fx", "fy", "fz"].iter().enumerate() {
+                    let _ = writeln!(w, "variable {n}_{q} equal c_{n}_sum[{}]", k + 1);
+                }
+                let (f, t) = (|k: usize| format!("c_{n}_sum[{}]", k + 1), |k: usize| format!("c_{n}_sum[{}]", k + 4));
+                let _ = writeln!(w, "variable {n}_tx equal y[{atom}]*{}-z[{atom}]*{}+{}", f(2), f(1), t(0));
+                let _ = writeln!(w, "variable {n}_ty equal z[{atom}]*{}-x[{atom}]*{}+{}", f(0), f(2), t(1));
+                let _ = writeln!(w, "variable {n}_tz equal x[{atom}]*{}-y[{atom}]*{}+{}", f(1), f(0), t(2));
             }
             Kind::Primitive { axis, at } => {
                 // force of the particles on the plane = - sum of its force on them; torque
@@ -370,7 +511,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         }
     }
     if let Some(z) = case.output.mass_below_z {
-        let _ = writeln!(w, "variable mb_atom atom mass*(z<{})\ncompute mb_sum all reduce sum v_mb_atom\nvariable mb equal c_mb_sum", g(z));
+        let _ = writeln!(w, "variable mb_atom atom mass*(z<{})\ncompute mb_sum grains reduce sum v_mb_atom\nvariable mb equal c_mb_sum", g(z));
         header.push_str(",mass_below_kg");
         row.push_str(",${mb}");
         thermo.push_str(" v_mb");
@@ -427,13 +568,14 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 let _ = writeln!(w, "uncompute {0}_sum\nunfix {0}", x.name);
                 live[i] = false;
             }
+            Kind::Ball { .. } => {
+                let _ = writeln!(w, "uncompute {0}_sum\nunfix {0}_move\ndelete_atoms group {0}_g", x.name);
+                live[i] = false;
+            }
             Kind::Mesh => {
                 let had = !mesh_names(live).is_empty();
                 if had {
                     let _ = writeln!(w, "uncompute wgl_ave\nuncompute wgl_sum\nuncompute wgl\nunfix meshes");
-                }
-                if x.velocity != Vec3::zeros() {
-                    let _ = writeln!(w, "unfix {}_move", x.name);
                 }
                 let _ = writeln!(w, "unfix {}", x.name);
                 live[i] = false;
