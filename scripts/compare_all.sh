@@ -33,6 +33,10 @@ for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   echo "compare cases/$c.toml ($h1_engines, exported): within tolerance"
 done
+# the dumbbell bed: YADE only (LIGGGHTS-PUBLIC 3.8 has no multisphere)
+python3 -m compare cases/drag-d1-bed1.toml --engines talus,yade --out "$out/case-drag-d1-bed1" > "$out-case-drag-d1-bed1.log" 2>&1 \
+  || { cat "$out-case-drag-d1-bed1.log"; echo "compare cases/drag-d1-bed1.toml: FAILED"; exit 1; }
+echo "compare cases/drag-d1-bed1.toml (talus,yade, exported): within tolerance"
 if [ "$full" = 1 ]; then
   python3 -m compare H1-small --engines "$h1_engines" --out "$out/H1-small" > "$out-H1-small.log" 2>&1 \
     || { cat "$out-H1-small.log"; echo "compare H1-small: FAILED"; exit 1; }

@@ -497,10 +497,10 @@ pub fn write_bed_case(dc: &DragCase, seed: u64, out: &Path) -> Result<PathBuf, T
              # one bed is one realisation of a dense granular flow: the engines agree on the mean\n\
              # drag (within 5%) and on the loads in the mean over the drag window (within 10% of\n\
              # each range), not force chain by force chain: instantaneous loads are held only\n\
-             # against gross errors (within their range). Tangential loads and torques on the\n\
+             # against gross errors (within 1.5 times their range). Tangential loads and torques on the\n\
              # container, and the peak drag, fluctuate: compared in the plots, not checked.\n\
              figure_rel = 0.05\n\
-             series_range = 1.0\n\
+             series_range = 1.5\n\
              windows = [[{}, {}]]\n\
              window_mean = 0.1\n\
              ignore = [\"peak_drag_n\", \"kinetic_energy_j\", \"floor_force_x_n\", \"lid_force_x_n\", \"left_force_y_n\", \"right_force_y_n\",\n\

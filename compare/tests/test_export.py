@@ -108,3 +108,24 @@ def test_what_liggghts_cannot_run_is_refused_naming_the_key(tmp_path):
     assert r.returncode != 0
     r = subprocess.run([str(engines.TALUS), "export", str(CASES / "SC-wall.toml"), "--to", "lammps", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert r.returncode != 0 and "liggghts or yade" in r.stderr
+
+
+def test_the_shipped_drag_bed_is_what_talus_drag_bed_case_writes(tmp_path):
+    """cases/beds/c1-bed1.csv is bed 1 of cases/drag/c1.toml as `talus drag --bed-case 1`
+    prepares it (grown and settled), bit for bit, and the case written beside it runs."""
+    r = subprocess.run([str(engines.TALUS), "drag", str(CASES / "drag" / "c1.toml"), "--bed-case", "1", "--out", str(tmp_path)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "c1-bed1.csv").read_bytes() == (CASES / "beds" / "c1-bed1.csv").read_bytes()
+    written = (tmp_path / "c1-bed1.toml").read_text()
+    shipped = (CASES / "drag-c1-bed1.toml").read_text()
+    assert written.replace('csv = "c1-bed1.csv"', 'csv = "beds/c1-bed1.csv"').split("[simulation]")[1] == shipped.split("[simulation]")[1]
+
+
+def test_a_moving_mesh_is_refused_for_liggghts_naming_the_wall(tmp_path):
+    p = tmp_path / "H1-moving.toml"
+    text = (CASES / "H1-small.toml").read_text().replace('stl = "meshes/hopper.stl"', 'stl = "meshes/hopper.stl"\nvelocity = [0.0, 0.0, 0.1]')
+    text = text.replace('"meshes/', f'"{CASES}/meshes/')
+    p.write_text(text)
+    r = subprocess.run([str(engines.TALUS), "export", str(p), "--to", "liggghts", "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert r.returncode != 0 and "wall.hopper.velocity" in r.stderr and "move/mesh" in r.stderr, r.stderr
