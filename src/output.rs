@@ -6,9 +6,11 @@
 //! snapshots up to the checkpoint's step and appends after them.
 
 use crate::durable::{write_atomic, Series};
+use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Record;
 use crate::sim::{Simulation, State};
+use crate::walls::Shape;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -100,11 +102,91 @@ impl Probes {
 }
 
 /// HDF5 snapshots in one file, one group per snapshot, and an XDMF index.
+/// A snapshot holds every particle (id, position, velocity, spin, radius) and
+/// the geometry of every wall still in the run at that time, in group
+/// `walls/<name>`: `vertices` (n x 3) and `cells` (triangles, m x 3; a 2D
+/// segment wall: lines, m x 2). Meshes are their triangles where they are;
+/// planes the polygon where they cut the domain; a ball a sphere of
+/// triangles (2D: a disc of triangles in z = 0). The XDMF shows each snapshot
+/// as the particles plus one grid per wall, so ParaView shows the walls move
+/// and a removed wall gone.
 pub struct Snapshots {
     h5: PathBuf,
     xdmf: PathBuf,
     file: hdf5_metno::File,
-    entries: Vec<(String, f64, usize)>,
+    entries: Vec<Entry>,
+    lo: Vec3,
+    hi: Vec3,
+    two_d: bool,
+}
+
+/// One snapshot in the XDMF index: group name, time, particle count, and per
+/// wall its name, vertex and cell counts and nodes per cell.
+struct Entry {
+    name: String,
+    time: f64,
+    n: usize,
+    walls: Vec<(String, usize, usize, usize)>,
+}
+
+/// A wall's surface as vertices and cells (3 nodes: triangles; 2: lines).
+pub fn wall_geometry(shape: &Shape, lo: Vec3, hi: Vec3, two_d: bool) -> (Vec<Vec3>, Vec<Vec<u64>>) {
+    match shape {
+        Shape::Mesh(m) => (m.vertices.clone(), m.triangles.iter().map(|t| t.iter().map(|&k| k as u64).collect()).collect()),
+        Shape::Plane(p) => {
+            // the polygon where the plane cuts the domain box: the crossings of its 12 edges
+            let c = |i: usize| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+            let mut pts: Vec<Vec3> = Vec::new();
+            let tol = 1e-12 * (hi - lo).norm();
+            for a in 0..8usize {
+                for bit in [1usize, 2, 4] {
+                    let b = a | bit;
+                    if b == a {
+                        continue;
+                    }
+                    let (pa, pb) = (c(a), c(b));
+                    let (da, db) = ((pa - p.point).dot(&p.normal), (pb - p.point).dot(&p.normal));
+                    if (da <= 0.0 && db >= 0.0) || (da >= 0.0 && db <= 0.0) {
+                        let x = if da == db { pa } else { pa + (pb - pa) * (da / (da - db)) };
+                        if !pts.iter().any(|q| (q - x).norm() <= tol) {
+                            pts.push(x);
+                        }
+                    }
+                }
+            }
+            if pts.len() < 3 {
+                return (Vec::new(), Vec::new());
+            }
+            let centre = pts.iter().fold(Vec3::zeros(), |s, q| s + q) / pts.len() as f64;
+            let u = (pts[0] - centre).normalize();
+            let v = p.normal.cross(&u);
+            pts.sort_by(|a, b| {
+                let (x, y) = ((a - centre).dot(&u), (a - centre).dot(&v));
+                let (x2, y2) = ((b - centre).dot(&u), (b - centre).dot(&v));
+                y.atan2(x).total_cmp(&y2.atan2(x2))
+            });
+            let cells = (1..pts.len() as u64 - 1).map(|k| vec![0, k, k + 1]).collect();
+            (pts, cells)
+        }
+        Shape::Disc(d) => {
+            if two_d {
+                let n = 48u64;
+                let mut v = vec![d.center];
+                for k in 0..n {
+                    let a = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+                    v.push(d.center + Vec3::new(d.radius * a.cos(), d.radius * a.sin(), 0.0));
+                }
+                (v, (0..n).map(|k| vec![0, 1 + k, 1 + (k + 1) % n]).collect())
+            } else {
+                let m = crate::walls::mesh::uv_sphere(d.center, d.radius, 12, 24);
+                (m.vertices.clone(), m.triangles.iter().map(|t| t.iter().map(|&k| k as u64).collect()).collect())
+            }
+        }
+        Shape::Segments(sg) => {
+            let v: Vec<Vec3> = sg.segs.iter().flat_map(|s| [s[0], s[1]]).collect();
+            (v, (0..sg.segs.len() as u64).map(|k| vec![2 * k, 2 * k + 1]).collect())
+        }
+    }
 }
 
 impl Snapshots {
@@ -113,7 +195,8 @@ impl Snapshots {
     /// ones are appended after the ones kept (the XDMF index is rewritten to
     /// match). A file HDF5 cannot open (a kill in the middle of a write) is
     /// kept aside as `snapshots.h5.damaged` with a warning, and a new one begun.
-    pub fn create(dir: &Path, resume_step: Option<u64>, dt: f64) -> Result<Snapshots, TalusError> {
+    pub fn create(dir: &Path, resume_step: Option<u64>, dt: f64, domain: (Vec3, Vec3), two_d: bool) -> Result<Snapshots, TalusError> {
+        let (lo, hi) = domain;
         let h5 = dir.join("snapshots.h5");
         let xdmf = dir.join("snapshots.xdmf");
         if let (Some(step), true) = (resume_step, h5.exists()) {
@@ -130,10 +213,19 @@ impl Snapshots {
                         let g = file.group(&name).map_err(err)?;
                         let t = g.attr("time_s").and_then(|a| a.read_scalar::<f64>()).unwrap_or(s as f64 * dt);
                         let n = g.dataset("radius").map_err(err)?.shape().first().copied().unwrap_or(0);
-                        entries.push((name, t, n));
+                        let mut walls = Vec::new();
+                        if let Ok(wg) = g.group("walls") {
+                            for w in wg.member_names().map_err(err)? {
+                                let ww = wg.group(&w).map_err(err)?;
+                                let nv = ww.dataset("vertices").map_err(err)?.shape().first().copied().unwrap_or(0);
+                                let cs = ww.dataset("cells").map_err(err)?.shape();
+                                walls.push((w, nv, cs.first().copied().unwrap_or(0), cs.get(1).copied().unwrap_or(3)));
+                            }
+                        }
+                        entries.push(Entry { name, time: t, n, walls });
                     }
                     file.flush().map_err(err)?;
-                    let snaps = Snapshots { h5, xdmf, file, entries };
+                    let snaps = Snapshots { h5, xdmf, file, entries, lo, hi, two_d };
                     snaps.write_xdmf()?;
                     return Ok(snaps);
                 }
@@ -146,7 +238,7 @@ impl Snapshots {
         }
         let file = hdf5_metno::File::create(&h5)
             .map_err(|e| TalusError::Run(format!("cannot create HDF5 file {}: {e}", h5.display())))?;
-        Ok(Snapshots { h5, xdmf, file, entries: Vec::new() })
+        Ok(Snapshots { h5, xdmf, file, entries: Vec::new(), lo, hi, two_d })
     }
 
     /// Write every particle (gathered from all ranks, in id order) as one snapshot.
@@ -166,8 +258,25 @@ impl Snapshots {
         let id: Vec<u64> = recs.iter().map(|r| r.id).collect();
         g.new_dataset::<f64>().shape(n).create("radius").map_err(err)?.write_raw(&radius).map_err(err)?;
         g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&id).map_err(err)?;
+        let mut walls = Vec::new();
+        let wg = g.create_group("walls").map_err(err)?;
+        for w in st.walls.iter().filter(|w| w.active) {
+            let (v, cells) = wall_geometry(&w.shape, self.lo, self.hi, self.two_d);
+            if v.is_empty() {
+                continue;
+            }
+            let per = cells.first().map(|c| c.len()).unwrap_or(3);
+            let ww = wg.create_group(&w.name).map_err(err)?;
+            let flat: Vec<f64> = v.iter().flat_map(|x| [x.x, x.y, x.z]).collect();
+            ww.new_dataset::<f64>().shape((v.len(), 3)).create("vertices").map_err(err)?.write_raw(&flat).map_err(err)?;
+            let cflat: Vec<u64> = cells.iter().flatten().copied().collect();
+            ww.new_dataset::<u64>().shape((cells.len(), per)).create("cells").map_err(err)?.write_raw(&cflat).map_err(err)?;
+            walls.push((w.name.clone(), v.len(), cells.len(), per));
+        }
+        // in name order, as HDF5 lists the groups when a restart reads them back
+        walls.sort_by(|a, b| a.0.cmp(&b.0));
         self.file.flush().map_err(err)?;
-        self.entries.push((name, st.time, n));
+        self.entries.push(Entry { name, time: st.time, n, walls });
         self.write_xdmf()
     }
 
@@ -175,17 +284,26 @@ impl Snapshots {
     fn write_xdmf(&self) -> Result<(), TalusError> {
         let h5 = self.h5.file_name().unwrap().to_string_lossy().to_string();
         let mut s = String::from(
-            "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n<Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+            "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n<Grid Name=\"talus\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
         );
-        for (g, t, n) in &self.entries {
-            s.push_str(&format!("<Grid Name=\"{g}\" GridType=\"Uniform\">\n<Time Value=\"{t:.9e}\"/>\n"));
+        for e in &self.entries {
+            let (g, t, n) = (&e.name, e.time, e.n);
+            s.push_str(&format!("<Grid Name=\"{g}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n<Time Value=\"{t:.9e}\"/>\n"));
+            s.push_str(&format!("<Grid Name=\"particles\" GridType=\"Uniform\">\n"));
             s.push_str(&format!(
                 "<Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\"/>\n<Geometry GeometryType=\"XYZ\">\n<DataItem Dimensions=\"{n} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5}:/{g}/position</DataItem>\n</Geometry>\n"
             ));
-            for (a, dims, ty) in [("velocity", "3", "Vector"), ("spin", "3", "Vector"), ("radius", "", "Scalar")] {
+            for (a, dims, ty, num) in [("velocity", "3", "Vector", "Float"), ("spin", "3", "Vector", "Float"), ("radius", "", "Scalar", "Float"), ("id", "", "Scalar", "UInt")] {
                 let d = if dims.is_empty() { format!("{n}") } else { format!("{n} {dims}") };
                 s.push_str(&format!(
-                    "<Attribute Name=\"{a}\" AttributeType=\"{ty}\" Center=\"Node\">\n<DataItem Dimensions=\"{d}\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5}:/{g}/{a}</DataItem>\n</Attribute>\n"
+                    "<Attribute Name=\"{a}\" AttributeType=\"{ty}\" Center=\"Node\">\n<DataItem Dimensions=\"{d}\" NumberType=\"{num}\" Precision=\"8\" Format=\"HDF\">{h5}:/{g}/{a}</DataItem>\n</Attribute>\n"
+                ));
+            }
+            s.push_str("</Grid>\n");
+            for (w, nv, nc, per) in &e.walls {
+                let topo = if *per == 2 { format!("TopologyType=\"Polyline\" NodesPerElement=\"2\"") } else { "TopologyType=\"Triangle\"".to_string() };
+                s.push_str(&format!(
+                    "<Grid Name=\"wall:{w}\" GridType=\"Uniform\">\n<Topology {topo} NumberOfElements=\"{nc}\">\n<DataItem Dimensions=\"{nc} {per}\" NumberType=\"UInt\" Precision=\"8\" Format=\"HDF\">{h5}:/{g}/walls/{w}/cells</DataItem>\n</Topology>\n<Geometry GeometryType=\"XYZ\">\n<DataItem Dimensions=\"{nv} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5}:/{g}/walls/{w}/vertices</DataItem>\n</Geometry>\n</Grid>\n"
                 ));
             }
             s.push_str("</Grid>\n");

@@ -75,7 +75,10 @@ fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Re
     obs.push(Box::new(probes));
     obs.push(Box::new(ranks));
     if let Some(iv) = sim.case().output.snapshot_interval {
-        let snaps = if root { Some(Snapshots::create(out, resume, sim.dt())) } else { None };
+        let d = &sim.case().simulation.domain;
+        let domain = (crate::dim::Vec3::from(d.lo), crate::dim::Vec3::from(d.hi));
+        let two_d = sim.case().simulation.dimension == crate::dim::Dimension::Two;
+        let snaps = if root { Some(Snapshots::create(out, resume, sim.dt(), domain, two_d)) } else { None };
         let mut snaps = SnapshotLog::new(sim.parallel().collective(snaps.transpose())?, iv);
         if resume.is_none() {
             snaps.write(sim)?;
