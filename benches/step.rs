@@ -39,7 +39,7 @@ fn packed_bed(n_side_xy: usize, layers: usize) -> Simulation {
         spacing: 2.0,
         seed: 1,
     };
-    let m = Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: 0.5, friction: 0.4 };
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: 0.5, friction: 0.4, rolling_friction: 0.0 };
     let case = CaseBuilder::new(Dimension::Three)
         .timestep(TimeStep::RayleighFraction(0.2))
         .gravity([0.0, 0.0, -9.81])

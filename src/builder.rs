@@ -329,6 +329,7 @@ impl ContactSection {
             wall_contact_point: None,
             characteristic_velocity: None,
             stiffness: None,
+            rolling: None,
         }
     }
 }
@@ -408,6 +409,7 @@ mod tests {
             density: 3900.0,
             restitution: 0.5,
             friction: 0.3,
+            rolling_friction: 0.0,
         }
     }
 

@@ -153,6 +153,20 @@ pub struct ContactSection {
     pub characteristic_velocity: Option<f64>,
     /// hooke: explicit absolute coefficients.
     pub stiffness: Option<HookeExplicit>,
+    /// Rolling resistance, a law of its own beside the normal and tangential
+    /// ones: "cdt" (constant directional torque, LIGGGHTS `rolling_friction
+    /// cdt`), with each material's `rolling_friction`. None: no rolling resistance.
+    pub rolling: Option<RollingModel>,
+}
+
+/// The rolling resistance law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RollingModel {
+    /// Constant directional torque: mu_r F_n R against the relative rolling
+    /// spin (LIGGGHTS `rolling_model_cdt.h`): R = R* between particles, the
+    /// particle's radius on a wall; the twisting part removed.
+    Cdt,
 }
 
 /// Where the force of a wall contact acts on the particle.
@@ -734,6 +748,15 @@ impl Case {
         self.validate_simulation()?;
         self.validate_parallel()?;
         self.validate_contact()?;
+        if self.contact.rolling.is_none() {
+            if let Some(m) = self.materials.iter().find(|m| m.rolling_friction > 0.0) {
+                return Err(self.err(
+                    &format!("materials.{}.rolling_friction", m.name),
+                    m.rolling_friction,
+                    "a rolling friction coefficient needs a rolling resistance law: set contact.rolling = \"cdt\"",
+                ));
+            }
+        }
         self.validate_particles()?;
         let mut names = std::collections::HashSet::new();
         for (i, w) in self.walls.iter().enumerate() {

@@ -21,6 +21,14 @@ pub struct Material {
     pub restitution: f64,
     /// Coulomb friction coefficient mu >= 0.
     pub friction: f64,
+    /// Rolling friction coefficient mu_r >= 0 (dimensionless; `contact.rolling`
+    /// picks the law). 0 when not given.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rolling_friction: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl Material {
@@ -43,6 +51,9 @@ impl Material {
         if !(self.friction.is_finite() && self.friction >= 0.0) {
             return bad("friction", self.friction, "the friction coefficient must be zero or positive");
         }
+        if !(self.rolling_friction.is_finite() && self.rolling_friction >= 0.0) {
+            return bad("rolling_friction", self.rolling_friction, "the rolling friction coefficient must be zero or positive");
+        }
         Ok(())
     }
 
@@ -64,6 +75,8 @@ pub struct PairMaterial {
     pub restitution: f64,
     /// Friction coefficient of the pair.
     pub friction: f64,
+    /// Rolling friction coefficient of the pair (mixed as friction).
+    pub rolling_friction: f64,
     /// Hertz damping prefactors, so that gamma = c sqrt(m*) (R* delta)^(1/4):
     /// [normal, tangential] for the LIGGGHTS mapping (from beta = ln e / sqrt(ln^2 e + pi^2)),
     /// then for the YADE mapping (from Thornton's damping ratio, the same for en and es).
@@ -115,9 +128,13 @@ pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     let y_eff = 1.0
         / ((1.0 - a.poisson_ratio.powi(2)) / a.youngs_modulus + (1.0 - b.poisson_ratio.powi(2)) / b.youngs_modulus);
     let g_eff = 1.0 / ((2.0 - a.poisson_ratio) / a.shear_modulus() + (2.0 - b.poisson_ratio) / b.shear_modulus());
-    let (restitution, friction) = match mixing {
-        Mixing::Liggghts => (0.5 * (a.restitution + b.restitution), 0.5 * (a.friction + b.friction)),
-        Mixing::Yade => (0.5 * (a.restitution + b.restitution), a.friction.min(b.friction)),
+    let (restitution, friction, rolling_friction) = match mixing {
+        Mixing::Liggghts => (
+            0.5 * (a.restitution + b.restitution),
+            0.5 * (a.friction + b.friction),
+            0.5 * (a.rolling_friction + b.rolling_friction),
+        ),
+        Mixing::Yade => (0.5 * (a.restitution + b.restitution), a.friction.min(b.friction), a.rolling_friction.min(b.rolling_friction)),
     };
     let beta = crate::contact::hertz::beta(restitution);
     let ratio = crate::contact::hertz::yade_damping_ratio(restitution);
@@ -125,7 +142,7 @@ pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     let (sn, st) = ((2.0 * y_eff).sqrt(), (8.0 * g_eff).sqrt());
     let l = -2.0 * (5.0f64 / 6.0).sqrt() * beta;
     let hertz_damping = [[l * sn, l * st], [2.0 * ratio * sn, 2.0 * ratio * st]];
-    PairMaterial { y_eff, g_eff, restitution, friction, hertz_damping }
+    PairMaterial { y_eff, g_eff, restitution, friction, rolling_friction, hertz_damping }
 }
 
 #[cfg(test)]
@@ -141,6 +158,7 @@ mod tests {
             density: 2500.0,
             restitution: 0.5,
             friction: 0.4,
+            rolling_friction: 0.0,
         }
     }
 

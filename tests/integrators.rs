@@ -14,7 +14,7 @@ use talus::sim::Simulation;
 
 /// Material "m": E = 1e6 Pa, nu 0.3, rho 2500 kg/m^3, restitution `e`, friction `mu`.
 fn material(e: f64, mu: f64) -> Material {
-    Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: e, friction: mu }
+    Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: e, friction: mu, rolling_friction: 0.0 }
 }
 
 /// An elastic, frictionless gas of `n^3` spheres in a closed box of six planes.

@@ -13,7 +13,7 @@ use talus::material::Material;
 /// (diameter 3.175 mm) moving at 0.5 m/s along +x into it; material "m"
 /// (E = 1e6 Pa, nu 0.3, rho 2500 kg/m^3, restitution `e`, friction 0.4).
 fn disc_case(e: f64) -> CaseBuilder {
-    let m = Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: e, friction: 0.4 };
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 2500.0, restitution: e, friction: 0.4, rolling_friction: 0.0 };
     CaseBuilder::new(Dimension::Two)
         .timestep(TimeStep::Seconds(5e-6))
         .domain([-0.02, -0.02, -0.001], [0.02, 0.02, 0.001])

@@ -23,6 +23,8 @@ pub struct ContactOptions {
     pub wall_arm_overlap: f64,
     /// How two materials mix into a pair.
     pub mixing: Mixing,
+    /// Rolling resistance (no convention default: given or none).
+    pub rolling: Option<crate::case::RollingModel>,
 }
 
 /// The options of the case's `[contact]` section: each one given, or its
@@ -68,5 +70,6 @@ pub fn resolve(c: &ContactSection) -> ContactOptions {
             WallContactPoint::Surface => 1.0,
         },
         mixing,
+        rolling: c.rolling,
     }
 }

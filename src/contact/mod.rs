@@ -276,8 +276,34 @@ pub fn evaluate<L: ContactLaw>(
         };
     let f_t = tangential(c, o.tang.history, cap, g.n, v_t, hist, dt);
     let force = g.n * f_n + f_t;
-    let (torque_i, torque_j) = g.torques(force);
+    let (mut torque_i, mut torque_j) = g.torques(force);
+    if o.rolling.is_some() && pm.rolling_friction > 0.0 {
+        let t = rolling_torque(pm.rolling_friction, c.f_elastic, pi, g, m);
+        torque_i -= t;
+        torque_j += t;
+    }
     ContactForce { force, torque_i, torque_j, normal: f_n }
+}
+
+/// Constant directional torque (`contact.rolling = "cdt"`, LIGGGHTS
+/// `rolling_model_cdt.h`): magnitude mu_r F_el R against the relative spin
+/// w_i - w_j, its twisting part (along n) removed; R = R* between two bodies,
+/// the particle's radius against a wall (LIGGGHTS 3.8.0's arm: measured
+/// against its deck, `cases/SC-rolling.toml`). F_el is the elastic normal
+/// force. Returned as the torque taken from i (and given to j).
+#[inline(always)]
+fn rolling_torque(mu_r: f64, f_el: f64, pi: PairInertia, g: &ContactGeom, m: &Motion) -> Vec3 {
+    let w = m.w_i - m.w_j;
+    let wm = w.norm();
+    if wm == 0.0 || f_el <= 0.0 {
+        return Vec3::zeros();
+    }
+    let arm = match g.lever {
+        geometry::Lever::AlongNormal { radius_i, radius_j, .. } if radius_j == 0.0 => radius_i,
+        _ => pi.r_eff,
+    };
+    let t = w * (mu_r * f_el * arm / wm);
+    t - g.n * t.dot(&g.n)
 }
 
 /// Tangential spring-dashpot with a Coulomb slider. `cap` bounds the elastic

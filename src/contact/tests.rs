@@ -41,7 +41,7 @@ fn geom(overlap: f64) -> ContactGeom {
 }
 
 fn opts(end: EndOfContact, tang: TangentialOptions) -> ContactOptions {
-    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts }
+    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None }
 }
 
 /// Body i moving at v relative to a body j at rest, neither spinning.
@@ -129,6 +129,7 @@ fn conventions_fill_every_option_not_given() {
         wall_contact_point: None,
         characteristic_velocity: None,
         stiffness: None,
+        rolling: None,
     };
     let t = conventions::resolve(&section(Convention::Talus, ModelName::Hertz));
     assert_eq!((t.damping, t.end, t.tang.history), (HertzDamping::Liggghts, EndOfContact::Tensile, TangentialHistory::Total));

@@ -310,6 +310,12 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         },
     };
     let settings = if opts.end == EndOfContact::Clip { format!("{settings} limitForce on").trim().to_string() } else { settings };
+    // rolling resistance: LIGGGHTS's own cdt model, the coefficient per type pair (mean, as talus mixes it)
+    let model = match case.contact.rolling {
+        Some(crate::case::RollingModel::Cdt) => format!("{model} rolling_friction cdt"),
+        None => model.to_string(),
+    };
+    let model = model.as_str();
 
     let mut s = String::new();
     let w = &mut s;
@@ -360,6 +366,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let mixed = |a: usize, b: usize| mix(&case.materials[a], &case.materials[b], Mixing::Liggghts);
     let _ = writeln!(w, "fix m3 all property/global coefficientRestitution peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).restitution));
     let _ = writeln!(w, "fix m4 all property/global coefficientFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).friction));
+    if case.contact.rolling.is_some() {
+        notes.push("rolling resistance: a primitive wall's torque column is the moment of the contact forces only (talus's also takes the rolling torques' reaction)".into());
+        let _ = writeln!(w, "fix m6 all property/global coefficientRollingFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).rolling_friction));
+    }
     match (case.contact.model, case.contact.stiffness) {
         (ModelName::Hooke, Some(k)) => {
             let _ = writeln!(w, "fix k1 all property/global kn peratomtypepair {nmat} {}", pair(&|_, _| k.kn));

@@ -73,6 +73,9 @@ fn check(case: &Case) -> Result<(), TalusError> {
         }
         _ => {}
     }
+    if c.rolling.is_some() {
+        return Err(refuse(case, "contact.rolling", "YADE 2023's Mindlin and ViscEl laws have no constant directional rolling torque (ViscEl's moment resistance grows with the spin)"));
+    }
     for (i, w) in case.walls.iter().enumerate() {
         if let WallShape::Segment(_) = w.shape {
             return Err(refuse(case, &format!("wall[{i}].segment ({})", w.name), "YADE has no 2D segment wall with rounded ends; give the wall as a plane or a box"));

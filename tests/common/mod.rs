@@ -115,7 +115,7 @@ pub fn mass() -> f64 {
 /// (m/s^2) along -y, time step `dt` (s), one phase "run" of 1 s. Add the particles
 /// and walls, then set it up with [`sim2d`].
 pub fn case2d(e: f64, mu: f64, gravity: f64, dt: f64) -> CaseBuilder {
-    let m = Material { name: "m".into(), youngs_modulus: 1.0e9, poisson_ratio: 0.3, density: 3900.0, restitution: e, friction: mu };
+    let m = Material { name: "m".into(), youngs_modulus: 1.0e9, poisson_ratio: 0.3, density: 3900.0, restitution: e, friction: mu, rolling_friction: 0.0 };
     CaseBuilder::new(Dimension::Two)
         .timestep(TimeStep::Seconds(dt))
         .gravity([0.0, -gravity, 0.0])
