@@ -33,6 +33,12 @@ for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   echo "compare cases/$c.toml ($h1_engines, exported): within tolerance"
 done
+# rolling resistance (cdt): LIGGGHTS only (YADE 2023 has no such law)
+for c in SC-rolling pile-rolling; do
+  python3 -m compare "cases/$c.toml" --engines talus,liggghts --out "$out/case-$c" > "$out-case-$c.log" 2>&1 \
+    || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
+  echo "compare cases/$c.toml (talus,liggghts, exported): within tolerance"
+done
 # the dumbbell bed: YADE only (LIGGGHTS-PUBLIC 3.8 has no multisphere)
 python3 -m compare cases/drag-d1-bed1.toml --engines talus,yade --out "$out/case-drag-d1-bed1" > "$out-case-drag-d1-bed1.log" 2>&1 \
   || { cat "$out-case-drag-d1-bed1.log"; echo "compare cases/drag-d1-bed1.toml: FAILED"; exit 1; }
