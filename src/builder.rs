@@ -15,6 +15,7 @@
 //!     density: 3900.0,
 //!     restitution: 0.5,
 //!     friction: 0.3,
+//!     rolling_friction: 0.0,
 //! };
 //! let case = CaseBuilder::new(Dimension::Two)
 //!     .timestep(TimeStep::Seconds(1e-6))

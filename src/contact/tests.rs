@@ -16,6 +16,7 @@ fn soft(e: f64, mu: f64) -> Material {
         density: 2500.0,
         restitution: e,
         friction: mu,
+        rolling_friction: 0.0,
     }
 }
 
