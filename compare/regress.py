@@ -67,10 +67,6 @@ def tolerances(case):
     return c
 
 
-def probes_path(out):
-    return out / "probes.csv"
-
-
 def run_talus(case_path, case, out, steps):
     """Run talus on the case into `out`; returns (figures, series, state_hash)."""
     if not TALUS.exists():
@@ -90,7 +86,7 @@ def run_talus(case_path, case, out, steps):
         if k in NOT_PHYSICS or isinstance(v, (str, dict, list)) or v is None:
             continue
         figures[k] = v
-    if case.get("analysis", {}).get("kind") == "drag" and not steps and probes_path(out).exists():
+    if case.get("analysis", {}).get("kind") == "drag" and not steps and (out / "probes.csv").exists():
         from .case import drag_figures, read_probes
 
         figures.update(drag_figures(read_probes(out / "probes.csv"), case))

@@ -122,10 +122,6 @@ arm = C["wall_arm"]
 
 # ---- probes
 tracked = [(t, bid[t]) for t in C["track"]]
-clump_of = {}
-for ci, (cid, mem, _, _) in enumerate(clumps):
-    for m, t in mem:
-        clump_of[m] = ci
 out = open("probes.csv", "w")
 out.write(C["header"] + "\n")
 stats = {"force_check": 0.0, "rows": 0}
