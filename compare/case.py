@@ -1,4 +1,4 @@
-"""python -m compare CASE.toml [--engines talus,liggghts] [--out DIR]
+"""python -m compare CASE.toml [--engines talus,liggghts] [--out DIR] [--set KEY=VALUE] [--reuse]
 
 Any case against the reference codes: the case is exported (`talus export --to ENGINE`)
 and run there, talus runs it in that engine's convention, and one piece of code
@@ -55,20 +55,42 @@ def run(cmd, log, cwd=None):
         raise EngineError(f"{' '.join(map(str, cmd))} failed (exit {p.returncode}); log {log}:\n{Path(log).read_text()[-1500:]}")
 
 
+# `--set KEY=VALUE` of the command line, applied to talus's runs and to the exports alike
+SETS = []
+# `--reuse`: a run already finished in the output folder (same case, same settings) is read, not run again
+REUSE = False
+
+
+def finished(out, what):
+    """With --reuse: whether `out` holds a finished run of `what` (the command, as recorded)."""
+    mark = out / "finished"
+    return REUSE and mark.exists() and mark.read_text() == what
+
+
 def run_talus(case, convention, out, extra=()):
     out.mkdir(parents=True, exist_ok=True)
-    sets = [a for kv in extra for a in ("--set", kv)]
-    run([TALUS, "run", case, "--out", out, "--quiet", "--set", f"contact.convention={convention}", *sets], out / "talus.log")
+    sets = [a for kv in [*SETS, *extra] for a in ("--set", kv)]
+    cmd = [TALUS, "run", case, "--out", out, "--quiet", "--set", f"contact.convention={convention}", *sets]
+    what = " ".join(map(str, cmd))
+    if not finished(out, what):
+        (out / "finished").unlink(missing_ok=True)
+        run(cmd, out / "talus.log")
+        (out / "finished").write_text(what)
     return read_probes(out / "probes.csv"), json.loads((out / "summary.json").read_text())
 
 
 def run_reference(case, engine, out):
     out.mkdir(parents=True, exist_ok=True)
-    run([TALUS, "export", case, "--to", engine, "--out", out], out / "export.log")
-    if engine == "liggghts":
-        run(["liggghts", "-in", "in.talus", "-log", "log.liggghts"], out / "run.log", cwd=out)
-    else:
-        run(["yade", "-n", "-j", "1", "-x", "talus.py"], out / "run.log", cwd=out)
+    cmd = [TALUS, "export", case, "--to", engine, "--out", out, *[a for kv in SETS for a in ("--set", kv)]]
+    what = " ".join(map(str, cmd))
+    if not finished(out, what):
+        (out / "finished").unlink(missing_ok=True)
+        run(cmd, out / "export.log")
+        if engine == "liggghts":
+            run(["liggghts", "-in", "in.talus", "-log", "log.liggghts"], out / "run.log", cwd=out)
+        else:
+            run(["yade", "-n", "-j", "1", "-x", "talus.py"], out / "run.log", cwd=out)
+        (out / "finished").write_text(what)
     return read_probes(out / "probes.csv")
 
 
@@ -380,7 +402,15 @@ def main(argv=None):
     ap.add_argument("--out", type=Path)
     ap.add_argument("--no-explain", action="store_true",
                     help="with both references: do not run talus once per convention option to explain where they disagree")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="change one value of the case in every engine (as `talus run --set`); repeatable")
+    ap.add_argument("--reuse", action="store_true",
+                    help="read the runs already finished in the output folder with the same command instead of running them again "
+                         "(a long comparison can be finished in parts)")
     a = ap.parse_args(argv)
+    global REUSE
+    SETS[:] = a.set
+    REUSE = a.reuse
     engines = [e.strip() for e in a.engines.split(",") if e.strip()]
     refs = [e for e in engines if e != "talus"]
     try:

@@ -1,4 +1,5 @@
 """Running the three engines on one set-up; each returns the path of its raw time series."""
+import os
 import re
 import shutil
 import subprocess
@@ -6,7 +7,8 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-TALUS = ROOT / "target" / "release" / "talus"
+# TALUS_BIN: another build of talus (a long comparison can run from a copy while the tree is rebuilt)
+TALUS = Path(os.environ.get("TALUS_BIN", ROOT / "target" / "release" / "talus"))
 REQUIRED = {"liggghts": "3.8.0", "yade": "2023.02a", "lammps": "20220106"}
 # the binary of each Debian package, where its name differs (lammps 20220106 is LAMMPS 29 Sep 2021)
 BINARY = {"lammps": "lmp"}

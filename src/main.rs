@@ -69,6 +69,9 @@ enum Cmd {
         /// Output folder (default: out/export/<case name>-<code>).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Change one value of the case before exporting it, as `talus run --set`. Repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
     },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
@@ -188,9 +191,9 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Cmd::Export { case, to, out } => {
+        Cmd::Export { case, to, out, sets } => {
             let target = talus::export::Target::parse(&to)?;
-            let c = Case::load(&case)?;
+            let c = Case::load_with(&case, &sets)?;
             let stem = case.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
             let out = out.unwrap_or_else(|| PathBuf::from("out").join("export").join(format!("{stem}-{to}")));
             let e = talus::export::export(&c, target, &out)?;
