@@ -296,6 +296,41 @@ def drag_figures(s, case):
     return {"mean_drag_n": float(drag[sel].mean()), "peak_drag_n": float(drag.max())}
 
 
+def drum_figures(s, case, folder):
+    """A rotating drum: the dynamic angle of repose, the angle to the horizontal of the bed's
+    long axis (principal axis of the spheres' volume) in the plane normal to the drum's axis,
+    from the final positions; and the mean torque of the spheres on the drum about its axis
+    (`<wall>_axis_torque_n_m`) over the case's window."""
+    a = case["analysis"]
+    wall = next(w for w in case["wall"] if w["name"] == a["wall"])
+    rot = wall.get("rotation") or next(m["rotation"] for p in case["phase"] for m in p.get("move", [])
+                                       if m["wall"] == a["wall"] and "rotation" in m)
+    axis = np.array(rot["axis"], float)
+    axis /= np.linalg.norm(axis)
+    g = np.array(case["simulation"].get("gravity", [0.0, 0.0, -9.81]), float)
+    g /= np.linalg.norm(g)
+    e1 = np.cross(axis, g)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e1, axis)  # upward (against gravity) in the plane
+    if e2 @ g > 0:
+        e2 = -e2
+    x, r = read_final(folder)
+    w = r ** 3
+    q = np.stack([x @ e1, x @ e2], axis=1)
+    q -= (w[:, None] * q).sum(0) / w.sum()
+    cov = (w[:, None, None] * q[:, :, None] * q[:, None, :]).sum(0) / w.sum()
+    vals, vecs = np.linalg.eigh(cov)
+    major = vecs[:, np.argmax(vals)]
+    angle = abs(np.degrees(np.arctan2(major[1], major[0])))
+    angle = min(angle, 180.0 - angle)
+    t = s["time_s"]
+    sel = (t >= a["window"][0]) & (t <= a["window"][1])
+    col = f"{a['wall']}_axis_torque_n_m"
+    if not sel.any() or col not in s:
+        raise EngineError(f"drum: no {col} rows within {a['window']} s")
+    return {"dynamic_angle_of_repose_deg": float(angle), "mean_axis_torque_n_m": float(s[col][sel].mean())}
+
+
 def figures_of(s, case, summary, folder=None):
     kind = case.get("analysis", {}).get("kind")
     if kind == "collision":
@@ -304,6 +339,8 @@ def figures_of(s, case, summary, folder=None):
         return hopper_figures(s, case, summary["total_mass_kg"])
     if kind == "drag":
         return drag_figures(s, case)
+    if kind == "drum" and folder is not None:
+        return drum_figures(s, case, folder)
     if kind == "pile" and folder is not None:
         return pile_figures(*read_final(folder), case)
     return {}

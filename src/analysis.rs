@@ -125,6 +125,21 @@ impl Analysis {
                 }
                 Analysis::None
             }
+            Some(AnalysisSection::Drum { wall, window }) => {
+                let w = wall_index(wall, "wall")?;
+                let turns = case.walls[w].rotation.is_some()
+                    || case.phases.iter().flat_map(|p| &p.moves).any(|m| m.wall == *wall && m.rotation.is_some());
+                if !turns {
+                    return Err(TalusError::Input(format!("{path}: analysis.wall = \"{wall}\": the wall never turns (give it a rotation, or a phase's move)")));
+                }
+                if !(window[0] >= 0.0 && window[1] > window[0]) {
+                    return Err(TalusError::Input(format!("{path}: analysis.window = {window:?}: must be [from, to] times (s), 0 <= from < to")));
+                }
+                if !case.output.final_state {
+                    return Err(TalusError::Input(format!("{path}: analysis.kind = \"drum\": needs output.final_state = true (the angle of repose is measured from final.csv)")));
+                }
+                Analysis::None
+            }
             Some(AnalysisSection::Collision { particle, wall, partner }) => {
                 let i = particle_index(*particle, "particle")?;
                 let (n, wall, partner) = match (wall, partner) {

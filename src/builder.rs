@@ -36,7 +36,7 @@
 
 use crate::case::{
     default_overlap_tol, AnalysisSection, BoxSection, Case, ContactSection, DiscSection, DomainSection, EllipseEntry,
-    LatticeSection, ModelName, OutputSection, ParallelSection, ParticleEntry, ParticleSource, ParticlesSection,
+    LatticeSection, ModelName, OscillationSection, RotationSection, OutputSection, ParallelSection, ParticleEntry, ParticleSource, ParticlesSection,
     PhaseSection, PlaneSection, SegmentSection, SimulationSection, TimeStep, WallSection, WallShape,
 };
 use crate::contact::Convention;
@@ -355,7 +355,15 @@ impl ParticleEntry {
 impl WallSection {
     /// A wall at rest, never removed.
     pub fn new(name: &str, material: &str, shape: WallShape) -> WallSection {
-        WallSection { name: name.to_string(), material: material.to_string(), shape, velocity: [0.0; 3], remove_at: None }
+        WallSection {
+            name: name.to_string(),
+            material: material.to_string(),
+            shape,
+            velocity: [0.0; 3],
+            rotation: None,
+            oscillation: None,
+            remove_at: None,
+        }
     }
 
     /// A one-sided plane through `point` (m), facing along `normal`.
@@ -382,6 +390,16 @@ impl WallSection {
     pub fn moving(self, velocity: [f64; 3]) -> WallSection {
         WallSection { velocity, ..self }
     }
+
+    /// The same wall turning at `angular_velocity` (rad/s) about the axis through `point`.
+    pub fn turning(self, axis: [f64; 3], point: [f64; 3], angular_velocity: f64) -> WallSection {
+        WallSection { rotation: Some(RotationSection { axis, point, angular_velocity }), ..self }
+    }
+
+    /// The same wall oscillating: displaced by `amplitude sin(2 pi frequency t)` (m, Hz).
+    pub fn oscillating(self, amplitude: [f64; 3], frequency: f64) -> WallSection {
+        WallSection { oscillation: Some(OscillationSection { amplitude, frequency }), ..self }
+    }
 }
 
 impl PhaseSection {
@@ -393,6 +411,7 @@ impl PhaseSection {
             kinetic_energy_fraction: None,
             settle_extra: 0.0,
             remove_walls_at_end: Vec::new(),
+            moves: Vec::new(),
         }
     }
 }

@@ -308,9 +308,51 @@ pub struct WallSection {
     pub name: String,
     pub material: String,
     pub shape: WallShape,
+    /// Translation at a constant velocity (m/s).
     pub velocity: [f64; 3],
+    /// Turning about an axis (the axis moves with the wall's translation and oscillation).
+    pub rotation: Option<RotationSection>,
+    /// A sinusoidal displacement on top of the translation.
+    pub oscillation: Option<OscillationSection>,
     /// Remove the wall at this simulated time (s).
     pub remove_at: Option<f64>,
+}
+
+/// `rotation = { axis, point, angular_velocity }`: the wall turns at
+/// `angular_velocity` (rad/s, right-handed about `axis`) about the axis through
+/// `point`; the point moves with the wall's translation and oscillation (the
+/// wall is a rigid body). The contact velocity includes the rotation, and the
+/// wall's probes gain `<name>_axis_torque_n_m`, the particles' torque on it about
+/// this axis (a drum's drive torque is its negative).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RotationSection {
+    pub axis: [f64; 3],
+    pub point: [f64; 3],
+    pub angular_velocity: f64,
+}
+
+/// `oscillation = { amplitude, frequency }`: the wall is displaced by
+/// `amplitude sin(2 pi frequency (t - t0))` (m, Hz), t0 the time the motion
+/// starts (0, or the start of the phase that sets it); LIGGGHTS's `wiggle`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OscillationSection {
+    pub amplitude: [f64; 3],
+    pub frequency: f64,
+}
+
+/// `[[phase.move]]`: from the start of the phase, wall `wall` moves as given
+/// here instead of as before (a part left out is absent: `{ wall = "lid" }`
+/// stops the lid).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MoveSection {
+    pub wall: String,
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    pub rotation: Option<RotationSection>,
+    pub oscillation: Option<OscillationSection>,
 }
 
 /// A wall's shape as the case gives it.
@@ -355,6 +397,8 @@ struct RawWall {
     boxed: Option<BoxSection>,
     #[serde(default)]
     velocity: [f64; 3],
+    rotation: Option<RotationSection>,
+    oscillation: Option<OscillationSection>,
     remove_at: Option<f64>,
 }
 
@@ -376,7 +420,15 @@ impl TryFrom<RawWall> for WallSection {
             ));
         }
         let shape = shapes.pop().expect("one shape, checked above");
-        Ok(WallSection { name: r.name, material: r.material, shape, velocity: r.velocity, remove_at: r.remove_at })
+        Ok(WallSection {
+            name: r.name,
+            material: r.material,
+            shape,
+            velocity: r.velocity,
+            rotation: r.rotation,
+            oscillation: r.oscillation,
+            remove_at: r.remove_at,
+        })
     }
 }
 
@@ -391,6 +443,8 @@ impl From<WallSection> for RawWall {
             segment: None,
             boxed: None,
             velocity: w.velocity,
+            rotation: w.rotation,
+            oscillation: w.oscillation,
             remove_at: w.remove_at,
         };
         match w.shape {
@@ -446,6 +500,9 @@ pub struct PhaseSection {
     /// Walls removed when the phase ends.
     #[serde(default)]
     pub remove_walls_at_end: Vec<String>,
+    /// Walls whose motion changes when the phase starts (`[[phase.move]]`).
+    #[serde(default, rename = "move", skip_serializing_if = "Vec::is_empty")]
+    pub moves: Vec<MoveSection>,
 }
 
 /// `[parallel]`: how the domain is cut among MPI ranks and kept balanced.
@@ -653,6 +710,15 @@ pub enum AnalysisSection {
         /// Height of the floor (m).
         #[serde(default)]
         floor_z: f64,
+    },
+    /// A rotating drum: its dynamic angle of repose (the angle of the bed's
+    /// long axis in the plane normal to the drum's axis, from `final.csv`) and
+    /// the mean drive torque about its axis over `window` (s), measured by
+    /// `python -m compare` alike for every engine (compare/case.py `drum_figures`).
+    Drum {
+        /// The turning wall.
+        wall: String,
+        window: [f64; 2],
     },
 }
 
@@ -1002,15 +1068,52 @@ impl Case {
             }
             WallShape::Stl(_) => {}
         }
-        if w.velocity.iter().any(|v| !v.is_finite()) {
-            return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "every component must be a finite number (m/s)"));
-        }
-        if two_d && w.velocity[2] != 0.0 {
-            return Err(self.err(&format!("wall.{name}.velocity"), format!("{:?}", w.velocity), "in 2D a wall moves in the x-y plane (z component 0)"));
-        }
+        self.validate_motion(&format!("wall.{name}"), &w.velocity, &w.rotation, &w.oscillation)?;
         if let Some(t) = w.remove_at {
             if !(t.is_finite() && t >= 0.0) {
                 return Err(self.err(&format!("wall.{name}.remove_at"), t, "must be a time >= 0 (s)"));
+            }
+        }
+        Ok(())
+    }
+
+    /// A wall's motion (its own, or a phase's `move`), keys under `at`.
+    fn validate_motion(
+        &self,
+        at: &str,
+        velocity: &[f64; 3],
+        rotation: &Option<RotationSection>,
+        oscillation: &Option<OscillationSection>,
+    ) -> Result<(), TalusError> {
+        let two_d = self.simulation.dimension == Dimension::Two;
+        let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+        if !finite(velocity) {
+            return Err(self.err(&format!("{at}.velocity"), format!("{velocity:?}"), "every component must be a finite number (m/s)"));
+        }
+        if two_d && velocity[2] != 0.0 {
+            return Err(self.err(&format!("{at}.velocity"), format!("{velocity:?}"), "in 2D a wall moves in the x-y plane (z component 0)"));
+        }
+        if let Some(r) = rotation {
+            let n = r.axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(finite(&r.axis) && n > 0.0 && n.is_finite()) {
+                return Err(self.err(&format!("{at}.rotation.axis"), format!("{:?}", r.axis), "must be a non-zero vector"));
+            }
+            if two_d && (r.axis[0] != 0.0 || r.axis[1] != 0.0) {
+                return Err(self.err(&format!("{at}.rotation.axis"), format!("{:?}", r.axis), "in 2D a wall turns about z: the axis is [0, 0, 1] or [0, 0, -1]"));
+            }
+            if !finite(&r.point) || (two_d && r.point[2] != 0.0) {
+                return Err(self.err(&format!("{at}.rotation.point"), format!("{:?}", r.point), "every component must be a finite number (m); in 2D z = 0"));
+            }
+            if !r.angular_velocity.is_finite() {
+                return Err(self.err(&format!("{at}.rotation.angular_velocity"), r.angular_velocity, "must be a finite number (rad/s)"));
+            }
+        }
+        if let Some(o) = oscillation {
+            if !finite(&o.amplitude) || (two_d && o.amplitude[2] != 0.0) {
+                return Err(self.err(&format!("{at}.oscillation.amplitude"), format!("{:?}", o.amplitude), "every component must be a finite number (m); in 2D z = 0"));
+            }
+            if !(o.frequency.is_finite() && o.frequency > 0.0) {
+                return Err(self.err(&format!("{at}.oscillation.frequency"), o.frequency, "must be a positive frequency (Hz)"));
             }
         }
         Ok(())
@@ -1041,6 +1144,17 @@ impl Case {
                 if !self.walls.iter().any(|x| &x.name == w) {
                     return Err(self.err(&format!("phase.{}.remove_walls_at_end", ph.name), format!("\"{w}\""), "no wall of that name"));
                 }
+            }
+            let mut moved = std::collections::HashSet::new();
+            for (k, m) in ph.moves.iter().enumerate() {
+                let at = format!("phase.{}.move[{k}]", ph.name);
+                if !self.walls.iter().any(|x| x.name == m.wall) {
+                    return Err(self.err(&format!("{at}.wall"), format!("\"{}\"", m.wall), "no wall of that name"));
+                }
+                if !moved.insert(m.wall.as_str()) {
+                    return Err(self.err(&format!("{at}.wall"), format!("\"{}\"", m.wall), "a phase moves a wall once"));
+                }
+                self.validate_motion(&at, &m.velocity, &m.rotation, &m.oscillation)?;
             }
         }
         Ok(())

@@ -310,12 +310,14 @@ fn wall_forces<L: ContactLaw>(
                 contacts += 1;
                 let g = shapes.wall(pr, i, wall, hit, s.opts.wall_arm_overlap);
                 let pm = table.get(pr.material[i], wall.material);
-                let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity, w_j: Vec3::zeros() };
+                // the force acts on the wall at the same point as on the particle, which
+                // moves with the wall's velocity there (a turning wall's rotation included)
+                let point = g.point(pr.pos[i]);
+                let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity_at(point), w_j: Vec3::zeros() };
                 let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, s.dt);
                 f += c.force;
                 t += c.torque_i;
-                // the force acts on the wall at the same point as on the particle
-                add_load(&mut loads[wi], g.point(pr.pos[i]), &c);
+                add_load(&mut loads[wi], point, &c);
             }
             updates.push((i as u32, f, t));
             (loads, contacts, updates, hits)

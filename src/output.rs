@@ -45,6 +45,9 @@ impl Probes {
             for c in ["x", "y", "z"] {
                 h.push_str(&format!(",{}_torque_{c}_n_m", w.name));
             }
+            if w.rotation.is_some() {
+                h.push_str(&format!(",{}_axis_torque_n_m", w.name));
+            }
         }
         if o.mass_below_z.is_some() {
             h.push_str(",mass_below_kg");
@@ -76,6 +79,9 @@ impl Probes {
                 for k in 0..3 {
                     line.push_str(&format!(",{:.9e}", v[k]));
                 }
+            }
+            if let Some(t) = w.axis_torque() {
+                line.push_str(&format!(",{t:.9e}"));
             }
         }
         if let Some(m) = mb {

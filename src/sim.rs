@@ -107,7 +107,8 @@ impl Simulation {
         let table = PairTable::new(&case.materials, opts.mixing);
         let mut p = build_particles(&case, &comm)?;
         let (dt, tr, rmin) = time_step(&case, &p)?;
-        let walls = build_walls(&case)?;
+        let mut walls = build_walls(&case)?;
+        apply_moves(&mut walls, &case, 0, 0.0);
         let s = &case.simulation;
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
         let set = Settings {
@@ -548,10 +549,11 @@ impl Simulation {
         }
         self.par.timers.integrate += t0.elapsed().as_secs_f64();
         let mut moved: f64 = 0.0;
+        let t_next = (self.state.step + 1) as f64 * dt;
         for w in &mut self.state.walls {
-            w.advance(dt);
+            let m = w.advance(dt, t_next);
             if w.active {
-                moved = moved.max(w.velocity.norm() * dt);
+                moved = moved.max(m);
             }
         }
         self.state.nl.wall_moved += moved;
@@ -623,6 +625,7 @@ impl Simulation {
             st.phase += 1;
             st.phase_start = st.time;
             st.settle_end = None;
+            apply_moves(&mut st.walls, &self.case, st.phase, st.time);
         }
         Ok(self.state.phase < self.case.phases.len())
     }
@@ -760,22 +763,50 @@ fn thread_pool(case: &Case, par: &Parallel) -> Result<rayon::ThreadPool, TalusEr
 }
 
 /// The walls of a case, in the order the case gives them.
+/// The walls of a case, in the order the case gives them, each moving as it
+/// says (a wall that first turns in a later phase has that axis from the start,
+/// turning at rate 0, for its axis torque).
 fn build_walls(case: &Case) -> Result<Vec<Wall>, TalusError> {
     let mut walls = Vec::new();
     for w in &case.walls {
-        walls.push(Wall {
-            name: w.name.clone(),
-            shape: wall_shape(case, &w.shape)?,
-            material: case.material_index(&w.material, "wall.material")?,
-            velocity: Vec3::from(w.velocity),
-            active: true,
-            remove_at: w.remove_at,
-            force: Vec3::zeros(),
-            torque: Vec3::zeros(),
-            load: [0; 6],
-        });
+        let mut wall = Wall::new(&w.name, wall_shape(case, &w.shape)?, case.material_index(&w.material, "wall.material")?);
+        wall.remove_at = w.remove_at;
+        let later = case.phases.iter().flat_map(|p| &p.moves).find(|m| m.wall == w.name && m.rotation.is_some());
+        let rotation = w.rotation.as_ref().or(later.and_then(|m| m.rotation.as_ref()));
+        let rate = w.rotation.as_ref().map_or(0.0, |r| r.angular_velocity);
+        set_motion(&mut wall, case, w.velocity, &w.oscillation, rotation.map(|r| (r, rate)), 0.0);
+        walls.push(wall);
     }
     Ok(walls)
+}
+
+/// Prescribe a wall's motion, as given in the case, from time t on.
+fn set_motion(
+    wall: &mut Wall,
+    case: &Case,
+    velocity: [f64; 3],
+    oscillation: &Option<crate::case::OscillationSection>,
+    rotation: Option<(&crate::case::RotationSection, f64)>,
+    t: f64,
+) {
+    let d = &case.simulation.domain;
+    wall.set_motion(
+        Vec3::from(velocity),
+        oscillation.as_ref().map(|o| (Vec3::from(o.amplitude), o.frequency)),
+        rotation.map(|(r, rate)| (Vec3::from(r.axis), Vec3::from(r.point), rate)),
+        t,
+        (Vec3::from(d.lo), Vec3::from(d.hi)),
+    );
+}
+
+/// Apply phase `k`'s `[[phase.move]]` entries at time t.
+fn apply_moves(walls: &mut [Wall], case: &Case, k: usize, t: f64) {
+    let Some(ph) = case.phases.get(k) else { return };
+    for m in &ph.moves {
+        if let Some(w) = walls.iter_mut().find(|w| w.name == m.wall) {
+            set_motion(w, case, m.velocity, &m.oscillation, m.rotation.as_ref().map(|r| (r, r.angular_velocity)), t);
+        }
+    }
 }
 
 /// A wall's geometry from the shape the case gives (an STL file is read here).

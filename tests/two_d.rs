@@ -112,20 +112,14 @@ fn a_dumbbell_hitting_a_wall_with_one_lobe_starts_to_spin_and_keeps_its_shape() 
     // the same dumbbell, not spinning, now with a wall at x = 2.5 mm: its lobe 1
     // hits; momentum about the contact point turns into spin (torque about C)
     let mut sim = dumbbell(0.0);
-    let wall = talus::walls::Wall {
-        name: "w".into(),
-        shape: talus::walls::Shape::Plane(talus::walls::Plane {
+    let wall = talus::walls::Wall::new(
+        "w",
+        talus::walls::Shape::Plane(talus::walls::Plane {
             point: talus::dim::Vec3::new(0.0025, 0.0, 0.0),
             normal: talus::dim::Vec3::new(-1.0, 0.0, 0.0),
         }),
-        material: 0,
-        velocity: talus::dim::Vec3::zeros(),
-        active: true,
-        remove_at: None,
-        force: talus::dim::Vec3::zeros(),
-        torque: talus::dim::Vec3::zeros(),
-        load: [0; 6],
-    };
+        0,
+    );
     sim.add_wall(wall);
     // tilt the dumbbell by 30 degrees so that only one lobe reaches the wall first
     sim.set_clump_angle(0, 30f64.to_radians());

@@ -430,6 +430,18 @@ impl Mesh {
         self.grid = TriangleGrid::build(&self.aabb, self.bounds);
     }
 
+    /// Turn the mesh by `rot` about `center`: vertices and normals; boxes and
+    /// grid are made anew (a turning mesh's triangles change cells).
+    pub fn rotate(&mut self, center: Vec3, rot: &nalgebra::Rotation3<f64>) {
+        for v in &mut self.vertices {
+            *v = center + rot * (*v - center);
+        }
+        for n in &mut self.normals {
+            *n = rot * *n;
+        }
+        self.update_boxes();
+    }
+
     /// Move the mesh by d: vertices, boxes and the grid's origin (the triangles
     /// stay in their cells; see `TriangleGrid` in mesh.rs for the rounding).
     pub fn translate(&mut self, d: Vec3) {

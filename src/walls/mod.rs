@@ -149,7 +149,80 @@ pub enum Shape {
     Segments(Segments),
 }
 
-/// A named wall with its material, prescribed velocity and accumulated load.
+impl Shape {
+    /// Turn the shape by `rot` about `center`.
+    pub fn rotate(&mut self, center: Vec3, rot: &nalgebra::Rotation3<f64>) {
+        let turn = |x: &mut Vec3| *x = center + rot * (*x - center);
+        match self {
+            Shape::Plane(p) => {
+                turn(&mut p.point);
+                p.normal = rot * p.normal;
+            }
+            Shape::Mesh(m) => m.rotate(center, rot),
+            Shape::Disc(b) => turn(&mut b.center),
+            Shape::Segments(s) => {
+                for seg in &mut s.segs {
+                    turn(&mut seg[0]);
+                    turn(&mut seg[1]);
+                }
+            }
+        }
+    }
+
+    /// The farthest that a point of the shape within the box [lo, hi] lies from
+    /// the line through `point` along the unit vector `axis` (m): a bound on how
+    /// far the surface moves when the shape turns about that line by a small
+    /// angle (per radian).
+    pub fn reach_from_axis(&self, point: Vec3, axis: Vec3, lo: Vec3, hi: Vec3) -> f64 {
+        let off = |x: Vec3| (x - point).cross(&axis).norm();
+        match self {
+            // a plane reaches as far as the box does
+            Shape::Plane(_) => (0..8)
+                .map(|i| off(Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z })))
+                .fold(0.0, f64::max),
+            Shape::Mesh(m) => m.vertices.iter().map(|&v| off(v)).fold(0.0, f64::max),
+            Shape::Disc(b) => off(b.center) + b.radius,
+            Shape::Segments(s) => s.segs.iter().flat_map(|g| [off(g[0]), off(g[1])]).fold(0.0, f64::max),
+        }
+    }
+}
+
+/// A wall's sinusoidal displacement `amplitude sin(omega (t - t0))`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Oscillation {
+    /// Amplitude (m).
+    pub amplitude: Vec3,
+    /// Angular frequency, 2 pi f (rad/s).
+    pub omega: f64,
+    /// Time the oscillation starts from zero displacement (s).
+    pub t0: f64,
+}
+
+impl Oscillation {
+    pub fn displacement(&self, t: f64) -> Vec3 {
+        self.amplitude * (self.omega * (t - self.t0)).sin()
+    }
+    pub fn velocity(&self, t: f64) -> Vec3 {
+        self.amplitude * (self.omega * (self.omega * (t - self.t0)).cos())
+    }
+}
+
+/// A wall's rotation about the axis through `point` (which moves with the
+/// wall's translation and oscillation) at `rate` (rad/s, right-handed).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Rotation {
+    /// Unit vector along the axis.
+    pub axis: Vec3,
+    /// A point of the axis, where it is now (m).
+    pub point: Vec3,
+    /// Angular velocity about the axis (rad/s).
+    pub rate: f64,
+    /// How far from the axis the wall reaches within the domain (m), for the
+    /// neighbour list's displacement bound.
+    pub reach: f64,
+}
+
+/// A named wall with its material, prescribed motion and accumulated load.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Wall {
     pub name: String,
@@ -157,6 +230,12 @@ pub struct Wall {
     pub material: u16,
     /// Prescribed translational velocity (m/s).
     pub velocity: Vec3,
+    /// Sinusoidal displacement on top of the translation, if any.
+    pub oscillation: Option<Oscillation>,
+    /// Rotation about an axis through a point moving with the wall, if any.
+    pub rotation: Option<Rotation>,
+    /// The oscillation's velocity at the current time (m/s; zero without one).
+    pub osc_velocity: Vec3,
     /// Whether the wall still takes part (a removed gate does not).
     pub active: bool,
     /// Simulated time at which the wall is removed, if any (s).
@@ -173,23 +252,109 @@ pub struct Wall {
 }
 
 impl Wall {
-    /// Move the wall by its prescribed velocity over dt.
-    pub fn advance(&mut self, dt: f64) {
-        if self.velocity == Vec3::zeros() {
-            return;
+    /// A wall at rest.
+    pub fn new(name: &str, shape: Shape, material: u16) -> Wall {
+        Wall {
+            name: name.to_string(),
+            shape,
+            material,
+            velocity: Vec3::zeros(),
+            oscillation: None,
+            rotation: None,
+            osc_velocity: Vec3::zeros(),
+            active: true,
+            remove_at: None,
+            force: Vec3::zeros(),
+            torque: Vec3::zeros(),
+            load: [0; 6],
         }
-        let d = self.velocity * dt;
-        match &mut self.shape {
-            Shape::Plane(p) => p.point += d,
-            Shape::Mesh(m) => m.translate(d),
-            Shape::Disc(b) => b.center += d,
-            Shape::Segments(s) => {
-                for seg in &mut s.segs {
-                    seg[0] += d;
-                    seg[1] += d;
+    }
+
+    /// Prescribe the wall's motion from time `t` on: translation at `velocity`,
+    /// an oscillation `(amplitude, frequency in Hz)` starting at t, a rotation
+    /// `(axis, point, rate)`; [lo, hi] is the domain (a turning plane reaches
+    /// across it).
+    pub fn set_motion(
+        &mut self,
+        velocity: Vec3,
+        oscillation: Option<(Vec3, f64)>,
+        rotation: Option<(Vec3, Vec3, f64)>,
+        t: f64,
+        (lo, hi): (Vec3, Vec3),
+    ) {
+        self.velocity = velocity;
+        self.oscillation =
+            oscillation.map(|(amplitude, f)| Oscillation { amplitude, omega: 2.0 * std::f64::consts::PI * f, t0: t });
+        self.osc_velocity = self.oscillation.as_ref().map_or(Vec3::zeros(), |o| o.velocity(t));
+        // a wall that stops turning keeps its axis (rate 0), for its axis torque
+        self.rotation = match rotation {
+            Some((axis, point, rate)) => {
+                let axis = axis.normalize();
+                Some(Rotation { axis, point, rate, reach: self.shape.reach_from_axis(point, axis, lo, hi) })
+            }
+            None => self.rotation.take().map(|r| Rotation { rate: 0.0, ..r }),
+        };
+    }
+
+    /// Move the wall over one step, from time t - dt to t: translation,
+    /// oscillation, then rotation about the axis where the translation left it.
+    /// Returns a bound on how far any point of its surface moved (m).
+    pub fn advance(&mut self, dt: f64, t: f64) -> f64 {
+        let mut moved = 0.0;
+        let mut d = None;
+        if self.velocity != Vec3::zeros() {
+            d = Some(self.velocity * dt);
+            moved += self.velocity.norm() * dt;
+        }
+        if let Some(o) = &self.oscillation {
+            let step = o.displacement(t) - o.displacement(t - dt);
+            d = Some(d.unwrap_or_else(Vec3::zeros) + step);
+            moved += step.norm();
+            self.osc_velocity = o.velocity(t);
+        }
+        if let Some(d) = d {
+            match &mut self.shape {
+                Shape::Plane(p) => p.point += d,
+                Shape::Mesh(m) => m.translate(d),
+                Shape::Disc(b) => b.center += d,
+                Shape::Segments(s) => {
+                    for seg in &mut s.segs {
+                        seg[0] += d;
+                        seg[1] += d;
+                    }
                 }
             }
+            if let Some(r) = &mut self.rotation {
+                r.point += d;
+            }
         }
+        if let Some(r) = &self.rotation {
+            if r.rate != 0.0 {
+                let angle = r.rate * dt;
+                let rot = nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(r.axis), angle);
+                self.shape.rotate(r.point, &rot);
+                moved += angle.abs() * r.reach;
+            }
+        }
+        moved
+    }
+
+    /// The wall's velocity at point x (m/s): translation, oscillation and rotation.
+    #[inline(always)]
+    pub fn velocity_at(&self, x: Vec3) -> Vec3 {
+        if self.oscillation.is_none() && self.rotation.is_none() {
+            return self.velocity;
+        }
+        let mut v = self.velocity + self.osc_velocity;
+        if let Some(r) = &self.rotation {
+            v += (r.axis * r.rate).cross(&(x - r.point));
+        }
+        v
+    }
+
+    /// The particles' torque on the wall about its rotation axis (N m), if it has one.
+    pub fn axis_torque(&self) -> Option<f64> {
+        self.rotation.as_ref().map(|r| (self.torque - r.point.cross(&self.force)).dot(&r.axis))
     }
 
     /// Features possibly within `reach` of a sphere surface, for the neighbour list.
