@@ -14,8 +14,17 @@
 //!   sliding by its `surface_vel`), is a `mesh/surface/stress` in one
 //!   `wall/gran` fix; a still plane normal to an axis is a `primitive` wall in
 //!   a fix of its own (`store_force` gives its load), so it can be removed
-//!   alone. A wall moving otherwise is refused: this LIGGGHTS build stops in
-//!   `fix move/mesh`;
+//!   alone. A moving mesh (an STL mesh, or a plane moving along its normal) is
+//!   moved by `fix move/mesh`: `linear`, `wiggle`, then `rotate` (created after
+//!   the translations, the rotation turns about the axis they carry); a phase
+//!   that changes the motion unfixes them (newest first) and creates the new
+//!   ones at its start. A turning mesh's `reference_point` is on its axis (it
+//!   moves and turns with the mesh; f_NAME[7..9] is where it is now), so
+//!   f_NAME[4..6] . axis is the axis torque, and the torque about the origin is
+//!   f[4..6] + f[7..9] x f[1..3]. (This LIGGGHTS stops in `fix move/mesh` with
+//!   "Illegal situation in MultiNodeMesh::registerMove" only when the mesh has
+//!   no triangles, e.g. a binary STL whose header starts with "solid".) A
+//!   ball wall is moved by `fix move` (linear or wiggle);
 //! - probes: one `fix print` for the whole run, every round(interval / dt)
 //!   steps, from step 0; the phase name is a string variable, a removed wall's
 //!   columns variables set to 0;
@@ -43,8 +52,8 @@ use crate::walls::Shape;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Why a wall that moves (other than a plane sliding within itself) is refused.
-const MOVE_MESH: &str = "LIGGGHTS 3.8.0 as Debian builds it stops in `fix move/mesh` (\"Illegal situation in MultiNodeMesh::registerMove\"), so only still walls and planes sliding within themselves (a mesh with `surface_vel`) are exported";
+/// Why a plane that turns, or moves within itself in more than one way, is refused.
+const PLANE_MOTION: &str = "a moving plane is a finite mesh across the domain in the LIGGGHTS deck: it may move along its normal (and, if that is its only motion, slide within itself as the mesh's `surface_vel`), but turning or oscillating within itself it would leave the domain; give the wall as an STL mesh";
 
 /// How a wall is written.
 #[derive(Clone, Debug)]
@@ -65,6 +74,66 @@ struct W {
     atom_type: usize,
     /// A plane's velocity within itself: the mesh's `surface_vel` (a conveyor belt).
     surface_vel: Vec3,
+    /// Its motions by `fix move/mesh` (a mesh) or `fix move` (a ball), each from
+    /// the start of a phase: (phase, velocity, oscillation (amplitude, Hz),
+    /// rotation (unit axis, point, rad/s)).
+    motions: Vec<Motion>,
+    /// A mesh that turns in some phase: its axis (point, unit direction), the
+    /// mesh's `reference_point` (which moves and turns with the mesh).
+    axis: Option<(Vec3, Vec3)>,
+}
+
+#[derive(Clone, Debug)]
+struct Motion {
+    phase: usize,
+    velocity: Vec3,
+    oscillation: Option<(Vec3, f64)>,
+    rotation: Option<(Vec3, Vec3, f64)>,
+}
+
+impl Motion {
+    fn from(m: &super::MotionAt) -> Motion {
+        Motion {
+            phase: m.phase,
+            velocity: Vec3::from(m.velocity),
+            oscillation: m.oscillation.map(|o| (Vec3::from(o.amplitude), o.frequency)),
+            rotation: m.rotation.map(|r| (Vec3::from(r.axis).normalize(), Vec3::from(r.point), r.angular_velocity)),
+        }
+    }
+}
+
+/// The `fix move/mesh` commands of a mesh's motion, in the order LIGGGHTS
+/// needs (translations first: a rotation created after them turns about the
+/// axis they carry); their fix ids are pushed to `ids`.
+fn mesh_moves(w: &mut String, name: &str, m: &Motion, ids: &mut Vec<String>) {
+    let tag = format!("{name}_mv{}", m.phase);
+    if m.velocity != Vec3::zeros() {
+        let v = m.velocity;
+        let _ = writeln!(w, "fix {tag}l all move/mesh mesh {name} linear {} {} {}", g(v.x), g(v.y), g(v.z));
+        ids.push(format!("{tag}l"));
+    }
+    if let Some((a, f)) = m.oscillation {
+        let _ = writeln!(w, "fix {tag}w all move/mesh mesh {name} wiggle amplitude {} {} {} period {}", g(a.x), g(a.y), g(a.z), g(1.0 / f));
+        ids.push(format!("{tag}w"));
+    }
+    if let Some((axis, p, rate)) = m.rotation {
+        if rate != 0.0 {
+            // period 2 pi / |rate|, about the axis turned to the rate's sense
+            let a = axis * rate.signum();
+            let _ = writeln!(
+                w,
+                "fix {tag}r all move/mesh mesh {name} rotate origin {} {} {} axis {} {} {} period {}",
+                g(p.x),
+                g(p.y),
+                g(p.z),
+                g(a.x),
+                g(a.y),
+                g(a.z),
+                g(2.0 * std::f64::consts::PI / rate.abs())
+            );
+            ids.push(format!("{tag}r"));
+        }
+    }
 }
 
 fn g(x: f64) -> String {
@@ -249,21 +318,37 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let (lo, hi) = (Vec3::from(d.lo), Vec3::from(d.hi));
     let mut walls = Vec::new();
     for (ws, w) in case.walls.iter().zip(sim.walls()) {
-        let velocity = Vec3::from(ws.velocity);
         let atom_type = case.material_index(&ws.material, "wall.material")? as usize + 1;
         let mut surface_vel = Vec3::zeros();
+        let at = super::wall_motions(case, &ws.name);
+        let still = at.iter().all(|m| m.is_still());
+        let mut motions: Vec<Motion> = at.iter().map(Motion::from).collect();
+        let mut axis_of = None;
         let kind = match &w.shape {
             Shape::Plane(pl) => {
                 let n = pl.normal;
                 let axis = (0..3).find(|&k| (n[k].abs() - 1.0).abs() < 1e-15 && (0..3).all(|j| j == k || n[j] == 0.0));
                 match axis {
-                    Some(axis) if velocity == Vec3::zeros() => Kind::Primitive { axis, at: pl.point[axis] },
+                    Some(axis) if still => Kind::Primitive { axis, at: pl.point[axis] },
                     _ => {
-                        // the mesh moves along the normal; the motion within the plane is its surface velocity
-                        let vn = n * velocity.dot(&n);
-                        surface_vel = velocity - vn;
-                        if vn.norm() > 0.0 {
-                            return Err(refuse(case, &format!("wall.{}.velocity", ws.name), MOVE_MESH));
+                        // the mesh moves along the normal (fix move/mesh); a single steady
+                        // motion within the plane is its surface velocity
+                        let along = |v: Vec3| (v - n * v.dot(&n)).norm() <= 1e-12 * v.norm();
+                        for (m, a) in motions.iter_mut().zip(&at) {
+                            if m.rotation.is_some_and(|r| r.2 != 0.0) {
+                                return Err(refuse(case, &format!("{}.rotation", a.key), PLANE_MOTION));
+                            }
+                            if m.oscillation.is_some_and(|o| !along(o.0)) {
+                                return Err(refuse(case, &format!("{}.oscillation", a.key), PLANE_MOTION));
+                            }
+                            if !along(m.velocity) {
+                                if at.len() > 1 || m.oscillation.is_some() {
+                                    return Err(refuse(case, &format!("{}.velocity", a.key), PLANE_MOTION));
+                                }
+                                surface_vel = m.velocity - n * m.velocity.dot(&n);
+                                m.velocity -= surface_vel;
+                            }
+                            m.rotation = None;
                         }
                         let m = plane_mesh(pl.point, n, lo, hi);
                         let f = out.join("meshes").join(format!("{}.stl", ws.name));
@@ -279,8 +364,17 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 }
             }
             Shape::Mesh(m) => {
-                if velocity != Vec3::zeros() {
-                    return Err(refuse(case, &format!("wall.{}.velocity", ws.name), MOVE_MESH));
+                // one axis of rotation per wall: the mesh's reference point is on it
+                for (mo, a) in motions.iter().zip(&at) {
+                    if let Some((ax, p, _)) = mo.rotation {
+                        match axis_of {
+                            None => axis_of = Some((p, ax)),
+                            Some((p0, a0)) if p0 == p && a0 == ax => {}
+                            Some(_) => {
+                                return Err(refuse(case, &format!("{}.rotation", a.key), "the LIGGGHTS deck measures a wall's axis torque about one axis: every rotation of a wall must have the same axis and point"));
+                            }
+                        }
+                    }
                 }
                 let f = out.join("meshes").join(format!("{}.stl", ws.name));
                 std::fs::create_dir_all(out.join("meshes")).map_err(|e| io(&f, e))?;
@@ -289,6 +383,14 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 Kind::Mesh
             }
             Shape::Disc(_) => {
+                for (mo, a) in motions.iter().zip(&at) {
+                    if mo.rotation.is_some_and(|r| r.2 != 0.0) {
+                        return Err(refuse(case, &format!("{}.rotation", a.key), "a ball wall is an atom moved by `fix move` in the LIGGGHTS deck: turning balls are not written"));
+                    }
+                    if mo.oscillation.is_some() && mo.velocity != Vec3::zeros() {
+                        return Err(refuse(case, &format!("{}.oscillation", a.key), "a ball wall is an atom moved by one `fix move` in the LIGGGHTS deck: it translates or oscillates, not both"));
+                    }
+                }
                 let atom = balls.iter().find(|b| b.0 == walls.len()).expect("listed above").1;
                 notes.push(format!(
                     "wall {}: the ball is atom {atom} of density {BALL_DENSITY:e} (m* = the particle's mass), moved by fix move and not integrated; its load is the force and torque on that atom",
@@ -298,7 +400,18 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             }
             _ => unreachable!("refused above"),
         };
-        walls.push(W { name: ws.name.clone(), kind, atom_type, surface_vel });
+        // (a plane that only slides within itself does not move: its surface velocity is written)
+        let moves = |m: &Motion| m.velocity != Vec3::zeros() || m.oscillation.is_some() || m.rotation.is_some_and(|r| r.2 != 0.0);
+        if still || matches!(kind, Kind::Primitive { .. }) || !motions.iter().any(moves) {
+            motions.clear();
+        }
+        if matches!(kind, Kind::Mesh) && motions.iter().any(|m| m.oscillation.is_some()) {
+            notes.push(format!(
+                "wall {}: LIGGGHTS's `wiggle` is measured 0.2-1.5% apart from talus (SC-wall's plate at 2 kHz, 20 um: peak force and overlap), where translation and rotation agree to 1e-6 or better; the cause is not yet found",
+                ws.name
+            ));
+        }
+        walls.push(W { name: ws.name.clone(), kind, atom_type, surface_vel, motions, axis: axis_of });
     }
 
     // the contact model words, shared by the pair style and the wall fixes
@@ -399,7 +512,11 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         } else {
             String::new()
         };
-        let _ = writeln!(w, "fix {0} all mesh/surface/stress file meshes/{0}.stl type {1}{sv}", m.name, m.atom_type);
+        let rp = match m.axis {
+            Some((p, _)) => format!(" reference_point {} {} {}", g(p.x), g(p.y), g(p.z)),
+            None => String::new(),
+        };
+        let _ = writeln!(w, "fix {0} all mesh/surface/stress file meshes/{0}.stl type {1}{sv}{rp}", m.name, m.atom_type);
     }
     let mesh_fix = |w: &mut String, names: &[&str]| {
         if !names.is_empty() {
@@ -425,10 +542,29 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     if two_d {
         let _ = writeln!(w, "fix e2d all enforce2d");
     }
-    for x in &walls {
-        if let Kind::Ball { .. } = x.kind {
-            let v = balls.iter().find(|b| case.walls[b.0].name == x.name).expect("listed").5;
-            let _ = writeln!(w, "fix {0}_move {0}_g move linear {1} {2} {3}", x.name, g(v.x), g(v.y), g(v.z));
+    // the walls' motions from the start: a ball by `fix move` (linear or wiggle), a
+    // mesh by `fix move/mesh` (active fix ids per wall, to unfix when a phase changes them)
+    let ball_move = |w: &mut String, name: &str, m: Option<&Motion>| {
+        let v = m.map_or(Vec3::zeros(), |m| m.velocity);
+        match m.and_then(|m| m.oscillation) {
+            Some((a, f)) => {
+                let _ = writeln!(w, "fix {name}_move {name}_g move wiggle {} {} {} {}", g(a.x), g(a.y), g(a.z), g(1.0 / f));
+            }
+            None => {
+                let _ = writeln!(w, "fix {name}_move {name}_g move linear {} {} {}", g(v.x), g(v.y), g(v.z));
+            }
+        }
+    };
+    let mut moving: Vec<Vec<String>> = vec![Vec::new(); walls.len()];
+    for (i, x) in walls.iter().enumerate() {
+        match x.kind {
+            Kind::Ball { .. } => ball_move(w, &x.name, x.motions.first()),
+            Kind::Mesh => {
+                if let Some(m) = x.motions.first() {
+                    mesh_moves(w, &x.name, m, &mut moving[i]);
+                }
+            }
+            Kind::Primitive { .. } => {}
         }
     }
 
@@ -448,13 +584,30 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             for q in ["fx", "fy", "fz", "tx", "ty", "tz"] {
                 let _ = writeln!(w, "variable {n}_{q} equal 0");
             }
+            if x.axis.is_some() {
+                let _ = writeln!(w, "variable {n}_ta equal 0");
+            }
             let _ = writeln!(w, "variable {n}_n equal 0");
             return;
         }
         match x.kind {
-            Kind::Mesh => {
+            Kind::Mesh if x.motions.is_empty() => {
                 for (k, q) in ["fx", "fy", "fz", "tx", "ty", "tz"].iter().enumerate() {
                     let _ = writeln!(w, "variable {n}_{q} equal f_{n}[{}]", k + 1);
+                }
+            }
+            Kind::Mesh => {
+                // f_NAME[4..6] is the torque about the mesh's reference point, which moves
+                // with it (now at f_NAME[7..9]): about the origin, T + p x F
+                let f = |k: usize| format!("f_{n}[{k}]");
+                for (k, q) in ["fx", "fy", "fz"].iter().enumerate() {
+                    let _ = writeln!(w, "variable {n}_{q} equal {}", f(k + 1));
+                }
+                let _ = writeln!(w, "variable {n}_tx equal {}+{}*{}-{}*{}", f(4), f(8), f(3), f(9), f(2));
+                let _ = writeln!(w, "variable {n}_ty equal {}+{}*{}-{}*{}", f(5), f(9), f(1), f(7), f(3));
+                let _ = writeln!(w, "variable {n}_tz equal {}+{}*{}-{}*{}", f(6), f(7), f(2), f(8), f(1));
+                if let Some((_, a)) = x.axis {
+                    let _ = writeln!(w, "variable {n}_ta equal {}*{}+{}*{}+{}*{}", f(4), g(a.x), f(5), g(a.y), f(6), g(a.z));
                 }
             }
             Kind::Ball { atom } => {
@@ -519,6 +672,11 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             let _ = write!(row, ",${{{}_t{c}}}", x.name);
             let _ = write!(thermo, " v_{}_t{c}", x.name);
         }
+        if x.axis.is_some() {
+            let _ = write!(header, ",{}_axis_torque_n_m", x.name);
+            let _ = write!(row, ",${{{}_ta}}", x.name);
+            let _ = write!(thermo, " v_{}_ta", x.name);
+        }
     }
     if let Some(z) = case.output.mass_below_z {
         let _ = writeln!(w, "variable mb_atom atom mass*(z<{})\ncompute mb_sum grains reduce sum v_mb_atom\nvariable mb equal c_mb_sum", g(z));
@@ -566,9 +724,13 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         .filter_map(|(i, x)| x.remove_at.map(|t| (removal_step(t, dt), i)))
         .collect();
     timed.sort();
-    let remove = |w: &mut String, live: &mut Vec<bool>, i: usize, why: &str| {
+    let remove = |w: &mut String, live: &mut Vec<bool>, moving: &mut Vec<Vec<String>>, i: usize, why: &str| {
         if !live[i] {
             return;
+        }
+        // (superposed moves are unfixed newest first)
+        for id in moving[i].drain(..).rev() {
+            let _ = writeln!(w, "unfix {id}");
         }
         let x = &walls[i];
         let _ = writeln!(w, "# remove wall {} ({why})", x.name);
@@ -599,6 +761,28 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     for (k, ph) in case.phases.iter().enumerate() {
         let _ = writeln!(w, "\n# ---- phase {k}: {} ({} s{})", ph.name, ph.duration, if ph.kinetic_energy_fraction.is_some() { ", or settled" } else { "" });
         let _ = writeln!(w, "variable phase string {}", ph.name);
+        // the walls whose motion this phase changes (set-up again before its first run)
+        for (i, x) in walls.iter().enumerate() {
+            let Some(m) = x.motions.iter().find(|m| m.phase == k && k > 0) else { continue };
+            if !live[i] {
+                continue;
+            }
+            let _ = writeln!(w, "# wall {}: its motion from here", x.name);
+            match x.kind {
+                Kind::Ball { .. } => {
+                    let _ = writeln!(w, "unfix {}_move", x.name);
+                    ball_move(w, &x.name, Some(m));
+                }
+                Kind::Mesh => {
+                    for id in moving[i].drain(..).rev() {
+                        let _ = writeln!(w, "unfix {id}");
+                    }
+                    mesh_moves(w, &x.name, m, &mut moving[i]);
+                }
+                Kind::Primitive { .. } => {}
+            }
+            let _ = writeln!(w, "variable pre string yes");
+        }
         match (ph.kinetic_energy_fraction, s0) {
             (None, Some(start)) => {
                 let n = phase_steps(start, ph.duration, dt);
@@ -612,7 +796,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                         let _ = writeln!(w, "run             {} pre ${{pre}} post no\nvariable pre string no", rs - at);
                         at = rs;
                     }
-                    remove(w, &mut live, i, &format!("remove_at = {} s", case.walls[i].remove_at.unwrap_or(0.0)));
+                    remove(w, &mut live, &mut moving, i, &format!("remove_at = {} s", case.walls[i].remove_at.unwrap_or(0.0)));
                     timed.remove(0);
                 }
                 if end > at {
@@ -661,7 +845,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         }
         for name in &ph.remove_walls_at_end {
             if let Some(i) = walls.iter().position(|x| &x.name == name) {
-                remove(w, &mut live, i, &format!("end of phase {}", ph.name));
+                remove(w, &mut live, &mut moving, i, &format!("end of phase {}", ph.name));
             }
         }
     }

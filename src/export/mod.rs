@@ -11,7 +11,7 @@
 pub mod liggghts;
 pub mod yade;
 
-use crate::case::Case;
+use crate::case::{Case, OscillationSection, RotationSection};
 use crate::error::TalusError;
 use std::path::{Path, PathBuf};
 
@@ -49,6 +49,54 @@ pub fn export(case: &Case, target: Target, out: &Path) -> Result<Exported, Talus
         Target::Liggghts => liggghts::export(case, out),
         Target::Yade => yade::export(case, out),
     }
+}
+
+/// A wall's motion from the start of a phase on, as the case gives it.
+#[derive(Clone, Debug)]
+pub struct MotionAt<'a> {
+    /// The phase it starts with (0: from the start of the run).
+    pub phase: usize,
+    /// The key that gives it (`wall.NAME` or `phase.NAME.move[k]`).
+    pub key: String,
+    pub velocity: [f64; 3],
+    pub rotation: Option<&'a RotationSection>,
+    pub oscillation: Option<&'a OscillationSection>,
+}
+
+impl MotionAt<'_> {
+    pub fn is_still(&self) -> bool {
+        self.velocity == [0.0; 3] && self.oscillation.is_none() && self.rotation.is_none_or(|r| r.angular_velocity == 0.0)
+    }
+}
+
+/// Wall `name`'s motions in phase order: its own from the start (or phase 0's
+/// move instead), then each later phase's move.
+pub fn wall_motions<'a>(case: &'a Case, name: &str) -> Vec<MotionAt<'a>> {
+    let w = case.walls.iter().find(|w| w.name == name).expect("a wall of the case");
+    let mut out = vec![MotionAt {
+        phase: 0,
+        key: format!("wall.{name}"),
+        velocity: w.velocity,
+        rotation: w.rotation.as_ref(),
+        oscillation: w.oscillation.as_ref(),
+    }];
+    for (i, ph) in case.phases.iter().enumerate() {
+        for (k, m) in ph.moves.iter().enumerate().filter(|(_, m)| m.wall == name) {
+            let at = MotionAt {
+                phase: i,
+                key: format!("phase.{}.move[{k}]", ph.name),
+                velocity: m.velocity,
+                rotation: m.rotation.as_ref(),
+                oscillation: m.oscillation.as_ref(),
+            };
+            if i == 0 {
+                out[0] = at;
+            } else {
+                out.push(at);
+            }
+        }
+    }
+    out
 }
 
 /// A refusal: the case's key and why the target cannot run it.

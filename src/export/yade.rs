@@ -76,6 +76,16 @@ fn check(case: &Case) -> Result<(), TalusError> {
     if c.rolling.is_some() {
         return Err(refuse(case, "contact.rolling", "YADE 2023's Mindlin and ViscEl laws have no constant directional rolling torque (ViscEl's moment resistance grows with the spin)"));
     }
+    for w in &case.walls {
+        let motions = super::wall_motions(case, &w.name);
+        if let Some(m) = motions.iter().find(|m| m.phase > 0) {
+            return Err(refuse(case, &m.key, "the YADE exporter writes each wall moving at one constant velocity all run: a phase that changes a wall's motion is not written yet"));
+        }
+        if motions[0].rotation.is_some() || motions[0].oscillation.is_some() {
+            let part = if motions[0].rotation.is_some() { "rotation" } else { "oscillation" };
+            return Err(refuse(case, &format!("{}.{part}", motions[0].key), "the YADE exporter writes walls moving at a constant velocity only: turning and oscillating walls are not written yet"));
+        }
+    }
     for (i, w) in case.walls.iter().enumerate() {
         if let WallShape::Segment(_) = w.shape {
             return Err(refuse(case, &format!("wall[{i}].segment ({})", w.name), "YADE has no 2D segment wall with rounded ends; give the wall as a plane or a box"));
