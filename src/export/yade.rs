@@ -77,13 +77,16 @@ fn check(case: &Case) -> Result<(), TalusError> {
         return Err(refuse(case, "contact.rolling", "YADE 2023's Mindlin and ViscEl laws have no constant directional rolling torque (ViscEl's moment resistance grows with the spin)"));
     }
     for w in &case.walls {
-        let motions = super::wall_motions(case, &w.name);
-        if let Some(m) = motions.iter().find(|m| m.phase > 0) {
-            return Err(refuse(case, &m.key, "the YADE exporter writes each wall moving at one constant velocity all run: a phase that changes a wall's motion is not written yet"));
-        }
-        if motions[0].rotation.is_some() || motions[0].oscillation.is_some() {
-            let part = if motions[0].rotation.is_some() { "rotation" } else { "oscillation" };
-            return Err(refuse(case, &format!("{}.{part}", motions[0].key), "the YADE exporter writes walls moving at a constant velocity only: turning and oscillating walls are not written yet"));
+        // YADE's axis-aligned `Wall` bodies (a plane normal to x, y or z; a 2D box) cannot turn
+        let aligned = match &w.shape {
+            WallShape::Plane(pl) => (0..3).any(|k| (pl.normal[k].abs() - 1.0).abs() < 1e-15 && (0..3).all(|q| q == k || pl.normal[q] == 0.0)),
+            WallShape::Box(_) => true,
+            _ => false,
+        };
+        for m in super::wall_motions(case, &w.name) {
+            if aligned && m.rotation.is_some_and(|r| r.angular_velocity != 0.0) {
+                return Err(refuse(case, &format!("{}.rotation", m.key), "a plane normal to x, y or z (or a 2D box) is a YADE `Wall`, which cannot turn; give a turning wall as an STL mesh"));
+            }
         }
     }
     for (i, w) in case.walls.iter().enumerate() {
@@ -205,11 +208,31 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     for (i, (ws, w)) in case.walls.iter().zip(sim.walls()).enumerate() {
         let velocity = Vec3::from(ws.velocity);
         let mat = nmat + i;
+        // its motions from the start of each phase: velocity, oscillation [amplitude, 2 pi f],
+        // rotation [unit axis, point, rate]; and the axis of its axis torque (as Simulation's walls)
+        let v3 = |a: [f64; 3]| json!(a);
+        let motions: Vec<Value> = super::wall_motions(case, &ws.name)
+            .iter()
+            .map(|m| {
+                json!({
+                    "phase": m.phase,
+                    "velocity": v3(m.velocity),
+                    "osc": m.oscillation.map(|o| json!([o.amplitude, 2.0 * std::f64::consts::PI * o.frequency])),
+                    "rot": m.rotation.map(|r| {
+                        let a = Vec3::from(r.axis).normalize();
+                        json!([[a.x, a.y, a.z], r.point, r.angular_velocity])
+                    }),
+                })
+            })
+            .collect();
+        let axis = w.rotation.as_ref().map(|r| json!([[r.point.x, r.point.y, r.point.z], [r.axis.x, r.axis.y, r.axis.z]]));
         let mut j = json!({
             "name": ws.name,
             "material": mat,
             "velocity": [velocity.x, velocity.y, velocity.z],
             "remove_at": ws.remove_at,
+            "motions": motions,
+            "torque_axis": axis,
         });
         match (&ws.shape, &w.shape) {
             (_, Shape::Plane(pl)) => {
@@ -372,14 +395,17 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         }
     }
 
-    // probes: the header of Probes::create
+    // probes: the header of Probes::create (a turning wall's axis torque after its other columns)
     let mut header = String::from("time_s,step,phase,kinetic_energy_j,contacts");
-    for ws in &case.walls {
+    for (ws, w) in case.walls.iter().zip(sim.walls()) {
         for c in ["x", "y", "z"] {
             let _ = write!(header, ",{}_force_{c}_n", ws.name);
         }
         for c in ["x", "y", "z"] {
             let _ = write!(header, ",{}_torque_{c}_n_m", ws.name);
+        }
+        if w.rotation.is_some() {
+            let _ = write!(header, ",{}_axis_torque_n_m", ws.name);
         }
     }
     if case.output.mass_below_z.is_some() {

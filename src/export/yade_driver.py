@@ -117,6 +117,59 @@ for i, w in enumerate(C["walls"]):
         wall_of[j] = i
     wall_ids.append(ids)
 removed = [False] * len(wall_ids)
+
+# ---- wall motion (Wall::advance): translation, oscillation amplitude sin(2 pi f (t - t0)),
+# rotation about an axis through a point carried by the translation. Each step's move
+# k -> k+1 is given to Newton as each body's velocity (the chord to its exact next
+# position) and spin; a wall at one constant velocity all run keeps the velocity it
+# was made with. axis_of: the point and axis of a turning wall's axis torque.
+motion_of = [None] * len(wall_ids)
+motion_t0 = [0] * len(wall_ids)
+axis_of = [None if w["torque_axis"] is None else [Vector3(*w["torque_axis"][0]), Vector3(*w["torque_axis"][1]).normalized()]
+           for w in C["walls"]]
+
+
+def dynamic(m):
+    return m is not None and (m["osc"] is not None or (m["rot"] is not None and m["rot"][2] != 0.0))
+
+
+def set_motion(i, phase, k):
+    """Wall i moves from step k on as phase `phase` says (if it says anything)."""
+    for m in C["walls"][i]["motions"]:
+        if m["phase"] == phase:
+            motion_of[i], motion_t0[i] = m, k
+            if m["rot"] is not None:
+                axis_of[i] = [Vector3(*m["rot"][1]), Vector3(*m["rot"][0]).normalized()]
+            if removed[i]:
+                return
+            for j in wall_ids[i]:
+                O.bodies[j].state.vel = Vector3(*m["velocity"])
+                O.bodies[j].state.angVel = Vector3(0, 0, 0)
+
+
+def move_walls(k):
+    """The velocities that move each wall from its pose at step k to that at step k+1."""
+    for i, m in enumerate(motion_of):
+        if removed[i] or m is None:
+            continue
+        d = Vector3(*m["velocity"]) * dt
+        if m["osc"] is not None:
+            amp, om = Vector3(*m["osc"][0]), m["osc"][1]
+            d += amp * (math.sin(om * (k + 1 - motion_t0[i]) * dt) - math.sin(om * (k - motion_t0[i]) * dt))
+        rate = m["rot"][2] if m["rot"] is not None else 0.0
+        if dynamic(m):
+            q = Quaternion(axis_of[i][1], rate * dt) if rate != 0.0 else None
+            for j in wall_ids[i]:
+                s = O.bodies[j].state
+                x = s.pos + d if q is None else axis_of[i][0] + d + q * (s.pos - axis_of[i][0])
+                s.vel = (x - s.pos) / dt
+                s.angVel = axis_of[i][1] * rate if q is not None else Vector3(0, 0, 0)
+        if axis_of[i] is not None:
+            axis_of[i][0] = axis_of[i][0] + d
+
+
+for i in range(len(wall_ids)):
+    set_motion(i, 0, 0)
 # (the exporter wrote wall_arm: 1 puts the torque's contact point on the wall's surface, 0.5 mid-overlap)
 arm = C["wall_arm"]
 
@@ -206,13 +259,16 @@ def write_row(k, V, ke):
     cols = [fmt(k * dt), str(k), ctl["name"], fmt(ke), str(n_contacts)]
     for i in range(nw):
         if removed[i]:
-            cols += ["0"] * 6
+            cols += ["0"] * (6 if axis_of[i] is None else 7)
             continue
         F = Vector3(0, 0, 0)
         for j in wall_ids[i]:
             F += O.forces.f(j, True)
         stats["force_check"] = max(stats["force_check"], (F - fw[i]).norm())
         cols += [fmt(F[0]), fmt(F[1]), fmt(F[2]), fmt(tq[i][0]), fmt(tq[i][1]), fmt(tq[i][2])]
+        if axis_of[i] is not None:
+            p, a = axis_of[i]
+            cols.append(fmt((tq[i] - p.cross(F)).dot(a)))
     if C["mass_below_z"] is not None:
         z = C["mass_below_z"]
         cols.append(fmt(math.fsum(info[t][0] for t, b in bid.items() if O.bodies[b].state.pos[2] < z)))
@@ -302,6 +358,10 @@ def hook():
             F, T = clump_loads(cid, mem)
             s.vel = proj(s.vel - (F / M + g) * (0.5 * dt))
             s.angVel = proj_w(s.angVel - T * (0.5 * dt / Ic))
+    else:
+        # the end of talus's step k (its walls then move on as the phase now says)
+        advance_phase(k)
+    move_walls(k)
 
 
 __main__._talus_hook = hook
@@ -312,6 +372,10 @@ def erase(i):
         for j in wall_ids[i]:
             O.bodies.erase(j)
         removed[i] = True
+
+
+removed_soon = set()
+to_erase = []  # walls a phase's end removes, erased after the iteration (between O.run chunks)
 
 
 def advance_phase(K):
@@ -331,11 +395,15 @@ def advance_phase(K):
             done = done or K * dt >= ctl["settle_end"] - 0.5 * dt
     if done:
         for i in p["remove"]:
-            erase(i)
+            to_erase.append(i)
+            removed_soon.add(i)
         ctl["phase"] += 1
         ctl["start"] = K
         ctl["settle_end"] = None
         ctl["name"] = phases[ctl["phase"]]["name"] if ctl["phase"] < len(phases) else "end"
+        for i in range(len(wall_ids)):
+            if i not in removed_soon:
+                set_motion(i, ctl["phase"], K)
         print("talus export: phase %s ended at step %d" % (p["name"], K))
 
 
@@ -381,7 +449,8 @@ while ctl["phase"] < len(phases):
     for i, s in removal.items():
         if s == K:
             erase(i)
-    advance_phase(K)
+    while to_erase:
+        erase(to_erase.pop())
 out.close()
 if C["final_state"]:
     # the state of step K: Newton has already moved every body to x(K+1) = x(K) + dt v(K+1/2)
