@@ -34,7 +34,7 @@ for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke
   echo "compare cases/$c.toml ($h1_engines, exported): within tolerance"
 done
 # rolling resistance (cdt): LIGGGHTS only (YADE 2023 has no such law); the rotating
-# drum: LIGGGHTS only (the YADE exporter does not write turning walls yet)
+# drum against LIGGGHTS (YADE's 5 min run is in --full)
 for c in SC-rolling pile-rolling drum; do
   python3 -m compare "cases/$c.toml" --engines talus,liggghts --out "$out/case-$c" > "$out-case-$c.log" 2>&1 \
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
@@ -44,7 +44,14 @@ done
 python3 -m compare cases/drag-d1-bed1.toml --engines talus,yade --out "$out/case-drag-d1-bed1" > "$out-case-drag-d1-bed1.log" 2>&1 \
   || { cat "$out-case-drag-d1-bed1.log"; echo "compare cases/drag-d1-bed1.toml: FAILED"; exit 1; }
 echo "compare cases/drag-d1-bed1.toml (talus,yade, exported): within tolerance"
+# direct shear under a servo lid: YADE only (the exporter refuses LIGGGHTS's own servo controller)
+python3 -m compare cases/shear-servo.toml --engines talus,yade --out "$out/case-shear-servo" > "$out-case-shear-servo.log" 2>&1 \
+  || { cat "$out-case-shear-servo.log"; echo "compare cases/shear-servo.toml: FAILED"; exit 1; }
+echo "compare cases/shear-servo.toml (talus,yade, exported): within tolerance"
 if [ "$full" = 1 ]; then
+  python3 -m compare cases/drum.toml --engines talus,liggghts,yade --no-explain --out "$out/case-drum-3" > "$out-case-drum-3.log" 2>&1 \
+    || { cat "$out-case-drum-3.log"; echo "compare cases/drum.toml (three engines): FAILED"; exit 1; }
+  echo "compare cases/drum.toml (talus,liggghts,yade, exported): within tolerance"
   python3 -m compare H1-small --engines "$h1_engines" --out "$out/H1-small" > "$out-H1-small.log" 2>&1 \
     || { cat "$out-H1-small.log"; echo "compare H1-small: FAILED"; exit 1; }
   echo "compare H1-small ($h1_engines, hand-written decks): all figures within tolerance"

@@ -362,6 +362,7 @@ impl WallSection {
             velocity: [0.0; 3],
             rotation: None,
             oscillation: None,
+            servo: None,
             remove_at: None,
         }
     }

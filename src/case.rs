@@ -314,10 +314,38 @@ pub struct WallSection {
     pub rotation: Option<RotationSection>,
     /// A sinusoidal displacement on top of the translation.
     pub oscillation: Option<OscillationSection>,
+    /// Moved along a direction so that the particles' load on it follows a target.
+    pub servo: Option<ServoSection>,
     /// Remove the wall at this simulated time (s).
     pub remove_at: Option<f64>,
 }
 
+/// `servo = { force | pressure + area, gain, max_speed, direction }`: the wall
+/// moves along `direction` (default: a plane's normal, towards the particles)
+/// at speed gain x (target - R), limited to +-max_speed, R the particles' push
+/// against that direction (N) at the last step and the target `force`, or
+/// `pressure` x `area`; a proportional controller (the wall's position
+/// integrates the error, so it comes to rest where R = target). The probes
+/// gain `<name>_travel_m`, how far it has moved along the direction.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ServoSection {
+    pub force: Option<f64>,
+    pub pressure: Option<f64>,
+    pub area: Option<f64>,
+    /// m/s per N of error.
+    pub gain: f64,
+    /// m/s.
+    pub max_speed: f64,
+    pub direction: Option<[f64; 3]>,
+}
+
+impl ServoSection {
+    /// The load to hold (N).
+    pub fn target(&self) -> f64 {
+        self.force.unwrap_or_else(|| self.pressure.unwrap_or(0.0) * self.area.unwrap_or(0.0))
+    }
+}
 /// `rotation = { axis, point, angular_velocity }`: the wall turns at
 /// `angular_velocity` (rad/s, right-handed about `axis`) about the axis through
 /// `point`; the point moves with the wall's translation and oscillation (the
@@ -399,6 +427,7 @@ struct RawWall {
     velocity: [f64; 3],
     rotation: Option<RotationSection>,
     oscillation: Option<OscillationSection>,
+    servo: Option<ServoSection>,
     remove_at: Option<f64>,
 }
 
@@ -427,6 +456,7 @@ impl TryFrom<RawWall> for WallSection {
             velocity: r.velocity,
             rotation: r.rotation,
             oscillation: r.oscillation,
+            servo: r.servo,
             remove_at: r.remove_at,
         })
     }
@@ -445,6 +475,7 @@ impl From<WallSection> for RawWall {
             velocity: w.velocity,
             rotation: w.rotation,
             oscillation: w.oscillation,
+            servo: w.servo,
             remove_at: w.remove_at,
         };
         match w.shape {
@@ -793,7 +824,12 @@ impl Case {
     }
 
     fn err(&self, key: &str, value: impl std::fmt::Display, why: &str) -> TalusError {
-        TalusError::Input(format!("{}: {key} = {value}: {why}", self.path.display()))
+        let value = value.to_string();
+        if value.is_empty() {
+            TalusError::Input(format!("{}: {key}: {why}", self.path.display()))
+        } else {
+            TalusError::Input(format!("{}: {key} = {value}: {why}", self.path.display()))
+        }
     }
 
     /// Resolve a path given in the case relative to the case file.
@@ -1069,10 +1105,52 @@ impl Case {
             WallShape::Stl(_) => {}
         }
         self.validate_motion(&format!("wall.{name}"), &w.velocity, &w.rotation, &w.oscillation)?;
+        if let Some(sv) = &w.servo {
+            self.validate_servo(w, sv)?;
+        }
         if let Some(t) = w.remove_at {
             if !(t.is_finite() && t >= 0.0) {
                 return Err(self.err(&format!("wall.{name}.remove_at"), t, "must be a time >= 0 (s)"));
             }
+        }
+        Ok(())
+    }
+
+    /// A servo wall: one target, positive gain and speed, a direction; no other motion.
+    fn validate_servo(&self, w: &WallSection, sv: &ServoSection) -> Result<(), TalusError> {
+        let at = format!("wall.{}.servo", w.name);
+        let pos = |k: &str, v: f64, unit: &str| -> Result<(), TalusError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(self.err(&format!("{at}.{k}"), v, &format!("must be a positive number ({unit})")))
+            }
+        };
+        match (sv.force, sv.pressure, sv.area) {
+            (Some(f), None, None) => pos("force", f, "N")?,
+            (None, Some(p), Some(a)) => {
+                pos("pressure", p, "Pa")?;
+                pos("area", a, "m^2")?;
+            }
+            _ => return Err(self.err(&at, "", "give the load to hold as `force` (N), or as `pressure` (Pa) and `area` (m^2)")),
+        }
+        pos("gain", sv.gain, "m/s per N")?;
+        pos("max_speed", sv.max_speed, "m/s")?;
+        match (&w.shape, sv.direction) {
+            (_, Some(d)) => {
+                let n = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if !(n > 0.0 && n.is_finite()) || (self.simulation.dimension == Dimension::Two && d[2] != 0.0) {
+                    return Err(self.err(&format!("{at}.direction"), format!("{d:?}"), "must be a non-zero vector (in 2D in the x-y plane)"));
+                }
+            }
+            (WallShape::Plane(_), None) => {}
+            (_, None) => return Err(self.err(&format!("{at}.direction"), "", "a servo wall that is not a plane needs the direction it moves to press on the particles")),
+        }
+        if w.velocity != [0.0; 3] || w.rotation.is_some() || w.oscillation.is_some() {
+            return Err(self.err(&at, "", "a servo wall moves only as its servo says: leave out its velocity, rotation and oscillation"));
+        }
+        if let Some(ph) = self.phases.iter().find(|p| p.moves.iter().any(|m| m.wall == w.name)) {
+            return Err(self.err(&format!("phase.{}.move", ph.name), format!("\"{}\"", w.name), "a servo wall moves only as its servo says"));
         }
         Ok(())
     }

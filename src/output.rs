@@ -48,6 +48,9 @@ impl Probes {
             if w.rotation.is_some() {
                 h.push_str(&format!(",{}_axis_torque_n_m", w.name));
             }
+            if w.servo.is_some() {
+                h.push_str(&format!(",{}_travel_m", w.name));
+            }
         }
         if o.mass_below_z.is_some() {
             h.push_str(",mass_below_kg");
@@ -82,6 +85,9 @@ impl Probes {
             }
             if let Some(t) = w.axis_torque() {
                 line.push_str(&format!(",{t:.9e}"));
+            }
+            if let Some(s) = &w.servo {
+                line.push_str(&format!(",{:.9e}", s.travel));
             }
         }
         if let Some(m) = mb {

@@ -253,6 +253,22 @@ impl Simulation {
         self.state.walls[i].velocity = v;
     }
 
+    /// Set wall `i`'s rate of turning about its axis (rad/s) from the next step
+    /// on; refused for a wall that never turns (it has no axis).
+    pub fn set_wall_rate(&mut self, i: usize, rate: f64) -> Result<(), TalusError> {
+        let w = &mut self.state.walls[i];
+        match &mut w.rotation {
+            Some(r) => {
+                r.rate = rate;
+                Ok(())
+            }
+            None => Err(TalusError::Input(format!(
+                "wall \"{}\" has no rotation axis: give it a `rotation` in the case (angular_velocity 0 to start at rest)",
+                w.name
+            ))),
+        }
+    }
+
     /// Remove wall `i` (as a phase's `remove_walls_at_end` does): it stops
     /// acting from the next step on; its candidates leave the lists at once.
     pub fn remove_wall(&mut self, i: usize) {
@@ -551,6 +567,9 @@ impl Simulation {
         let mut moved: f64 = 0.0;
         let t_next = (self.state.step + 1) as f64 * dt;
         for w in &mut self.state.walls {
+            if w.active {
+                w.servo_update(dt);
+            }
             let m = w.advance(dt, t_next);
             if w.active {
                 moved = moved.max(m);
@@ -775,6 +794,14 @@ fn build_walls(case: &Case) -> Result<Vec<Wall>, TalusError> {
         let rotation = w.rotation.as_ref().or(later.and_then(|m| m.rotation.as_ref()));
         let rate = w.rotation.as_ref().map_or(0.0, |r| r.angular_velocity);
         set_motion(&mut wall, case, w.velocity, &w.oscillation, rotation.map(|r| (r, rate)), 0.0);
+        if let Some(sv) = &w.servo {
+            let direction = match (sv.direction, &wall.shape) {
+                (Some(d), _) => Vec3::from(d).normalize(),
+                (None, Shape::Plane(p)) => p.normal,
+                (None, _) => unreachable!("checked: a servo wall that is not a plane gives its direction"),
+            };
+            wall.servo = Some(crate::walls::Servo { direction, target: sv.target(), gain: sv.gain, max_speed: sv.max_speed, travel: 0.0 });
+        }
         walls.push(wall);
     }
     Ok(walls)

@@ -283,3 +283,59 @@ fn bad_motion_is_refused_naming_the_key_and_the_value() {
         assert!(e.contains(expect) && e.contains("drum.toml"), "{from} -> {to}: {e}");
     }
 }
+
+#[test]
+fn a_servo_wall_comes_in_at_its_speed_limit_then_holds_its_target_load() {
+    // the lid of cases/shear-servo.toml, raised 5 mm above the bed: it comes down at
+    // max_speed (travel = v_max t to rounding) until it touches, then presses until
+    // the bed pushes back with the target (10 N) and comes to rest there
+    let mut sim = common::sim("shear-servo.toml", |c: &mut Case| {
+        c.phases.truncate(1);
+        c.phases[0].duration = 0.4;
+        match &mut common::wall(c, "lid").shape {
+            talus::case::WallShape::Plane(p) => p.point[2] += 0.005,
+            _ => unreachable!(),
+        }
+    });
+    let dt = sim.dt();
+    let servo = |s: &Simulation| s.walls().iter().find(|w| w.name == "lid").unwrap().servo.clone().unwrap();
+    let v_max = servo(&sim).max_speed;
+    for _ in 0..500 {
+        sim.step().unwrap();
+    }
+    let travel = servo(&sim).travel;
+    assert!((travel - v_max * 500.0 * dt).abs() < 1e-12, "free approach: travel {travel} vs {}", v_max * 500.0 * dt);
+    let mut pushes = Vec::new();
+    while sim.state().time < 0.4 - 0.5 * dt {
+        sim.step().unwrap();
+        if sim.state().time > 0.35 {
+            let w = sim.walls().iter().find(|w| w.name == "lid").unwrap();
+            pushes.push(-w.force.dot(&w.servo.as_ref().unwrap().direction));
+        }
+    }
+    let mean = pushes.iter().sum::<f64>() / pushes.len() as f64;
+    assert!((mean - 10.0).abs() < 0.1, "the bed's push on the lid over 0.35-0.4 s: {mean} N against the target 10 N");
+    let lid = sim.walls().iter().find(|w| w.name == "lid").unwrap();
+    assert!(lid.velocity.norm() < 0.05 * v_max, "the lid comes to rest: {:?}", lid.velocity);
+}
+
+#[test]
+fn a_bad_servo_is_refused_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = dir.path().join("beds");
+    std::fs::create_dir_all(&b).unwrap();
+    std::fs::copy(common::cases_dir().join("beds/shear-cell.csv"), b.join("shear-cell.csv")).unwrap();
+    let servo = "servo = { force = 10.0, gain = 0.01, max_speed = 0.05 }";
+    for (to, expect) in [
+        ("servo = { force = 10.0, pressure = 5.0, area = 2.0, gain = 0.01, max_speed = 0.05 }", "wall.lid.servo: give the load to hold"),
+        ("servo = { force = 10.0, gain = -0.01, max_speed = 0.05 }", "wall.lid.servo.gain = -0.01"),
+        ("servo = { force = 10.0, gain = 0.01, max_speed = 0.05, direction = [0.0, 0.0, 0.0] }", "wall.lid.servo.direction"),
+        ("servo = { force = 10.0, gain = 0.01, max_speed = 0.05 }\nvelocity = [0.0, 0.0, -0.1]", "leave out its velocity"),
+    ] {
+        let text = common::case_text("shear-servo.toml", &[(servo, to)]);
+        let path = dir.path().join("shear-servo.toml");
+        std::fs::write(&path, text).unwrap();
+        let e = Case::load(&path).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains(expect) && e.contains("shear-servo.toml"), "{to}: {e}");
+    }
+}

@@ -172,3 +172,13 @@ def test_an_oscillating_plate_differs_from_the_references_by_order_w_dt(tmp_path
     # the plate's motion shows: the peak force is not the still plate's
     assert abs(f["engines"]["liggghts"]["max_normal_force_n"] - still["max_normal_force_n"]) > 1e-3 * still["max_normal_force_n"]
 
+
+def test_a_servo_wall_is_written_for_yade_and_refused_for_liggghts(tmp_path):
+    r = subprocess.run([str(engines.TALUS), "export", str(CASES / "shear-servo.toml"), "--to", "liggghts", "--out", str(tmp_path / "l")],
+                       capture_output=True, text=True)
+    assert r.returncode != 0 and "wall.lid.servo" in r.stderr and "shear-servo.toml" in r.stderr, r.stderr
+    r = subprocess.run([str(engines.TALUS), "export", str(CASES / "shear-servo.toml"), "--to", "yade", "--out", str(tmp_path / "y")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    script = (tmp_path / "y" / "talus.py").read_text()
+    assert "lid_travel_m" in script and '"target": 10.0' in script

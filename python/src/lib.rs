@@ -643,6 +643,30 @@ impl Wall {
         Ok(())
     }
 
+    /// Torque of the particles on the wall about its rotation axis at the last step (N m),
+    /// or None for a wall that never turns.
+    #[getter]
+    fn axis_torque(&self, py: Python<'_>) -> PyResult<Option<f64>> {
+        Ok(self.sim.bind(py).try_borrow()?.sim.walls()[self.index].axis_torque())
+    }
+
+    /// The wall's angular velocity about its axis (rad/s), or None for a wall that never
+    /// turns; set it to change the rate from the next step on (the axis stays).
+    #[getter]
+    fn angular_velocity(&self, py: Python<'_>) -> PyResult<Option<f64>> {
+        Ok(self.sim.bind(py).try_borrow()?.sim.walls()[self.index].rotation.as_ref().map(|r| r.rate))
+    }
+
+    #[setter]
+    fn set_angular_velocity(&self, py: Python<'_>, rate: f64) -> PyResult<()> {
+        let mut s = self.sim.bind(py).try_borrow_mut()?;
+        let name = s.sim.walls()[self.index].name.clone();
+        if !rate.is_finite() {
+            return Err(InputError::new_err(format!("wall {name:?} angular_velocity = {rate}: must be a finite number (rad/s)")));
+        }
+        s.sim.set_wall_rate(self.index, rate).map_err(|e| InputError::new_err(e.to_string()))
+    }
+
     /// Remove the wall: it stops acting from the next step on (as a phase's `remove_walls_at_end`).
     fn remove(&self, py: Python<'_>) -> PyResult<()> {
         self.sim.bind(py).try_borrow_mut()?.sim.remove_wall(self.index);

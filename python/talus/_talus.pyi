@@ -173,6 +173,14 @@ class Wall:
         """The wall's prescribed velocity (m/s); set it to move the wall from the next step on."""
     @velocity.setter
     def velocity(self, v: npt.ArrayLike) -> None: ...
+    @property
+    def axis_torque(self) -> Optional[float]:
+        """Torque of the particles on the wall about its rotation axis at the last step (N m); None if it never turns."""
+    @property
+    def angular_velocity(self) -> Optional[float]:
+        """Its rate of turning about its axis (rad/s), None if it never turns; set it to change the rate from the next step on."""
+    @angular_velocity.setter
+    def angular_velocity(self, rate: float) -> None: ...
     def remove(self) -> None:
         """Remove the wall: it stops acting from the next step on."""
 

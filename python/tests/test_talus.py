@@ -253,6 +253,34 @@ def test_wall_velocity_and_remove():
     assert abs(sim.velocities[0, 2] - (v1 - G * 10 * sim.dt)) < 1e-12
 
 
+def test_a_turning_wall_from_python_axis_torque_and_rate():
+    """A sphere resting on a floor whose axis (y, through x = 0.05) turns at rate 0: the axis
+    torque is m g (x0 - 0.05); setting the rate turns the floor (its normal tilts by rate t)."""
+    x0 = 0.0
+    d = free_sphere([x0, 0, 0.0101], [0, 0, 0], gravity=(0, 0, -G))
+    d["wall"] = [{"name": "floor", "material": "m", "plane": {"point": [0, 0, 0], "normal": [0, 0, 1]},
+                  "rotation": {"axis": [0, 1, 0], "point": [0.05, 0, 0], "angular_velocity": 0.0}}]
+    d["phase"] = [{"name": "rest", "duration": 1.0}]
+    d["contact"] = {"model": "hertz"}
+    sim = talus.Simulation.from_dict(d)
+    sim.run_until(0.5)
+    floor = sim.walls["floor"]
+    m = sim.masses[0]
+    assert abs(floor.axis_torque - m * G * (x0 - 0.05)) < 1e-3 * m * G * 0.05
+    assert floor.angular_velocity == 0.0
+    with pytest.raises(talus.InputError, match="finite"):
+        floor.angular_velocity = float("inf")
+    floor.angular_velocity = 0.1
+    sim.step(100)
+    assert floor.angular_velocity == 0.1
+    # a wall without an axis has none to turn about
+    d["wall"][0].pop("rotation")
+    other = talus.Simulation.from_dict(d)
+    assert other.walls["floor"].axis_torque is None and other.walls["floor"].angular_velocity is None
+    with pytest.raises(talus.InputError, match="no rotation axis"):
+        other.walls["floor"].angular_velocity = 1.0
+
+
 def test_checkpoint_from_python_restarts_to_the_uninterrupted_state(tmp_path):
     case = CASES / "H1-small.toml"
     over = ["particles.lattice.count=400"]

@@ -175,6 +175,13 @@ fn check(case: &Case) -> Result<(), TalusError> {
     if c.wall_contact_point == Some(crate::case::WallContactPoint::Surface) {
         return Err(refuse(case, "contact.wall_contact_point = \"surface\"", "LIGGGHTS acts at the middle of a wall overlap"));
     }
+    if let Some(w) = case.walls.iter().find(|w| w.servo.is_some()) {
+        return Err(refuse(
+            case,
+            &format!("wall.{}.servo", w.name),
+            "LIGGGHTS's servo wall (fix mesh/surface/stress/servo) runs its own controller (a PID on the error over the set point, scaled by vel_max, with hard-coded gains in its auto mode), not talus's; the deck would not hold the same load the same way",
+        ));
+    }
     for (i, w) in case.walls.iter().enumerate() {
         match &w.shape {
             WallShape::Segment(_) | WallShape::Box(_) => {

@@ -233,6 +233,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             "remove_at": ws.remove_at,
             "motions": motions,
             "torque_axis": axis,
+            "servo": w.servo.as_ref().map(|sv| json!({
+                "direction": [sv.direction.x, sv.direction.y, sv.direction.z],
+                "target": sv.target, "gain": sv.gain, "max_speed": sv.max_speed,
+            })),
         });
         match (&ws.shape, &w.shape) {
             (_, Shape::Plane(pl)) => {
@@ -406,6 +410,9 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         }
         if w.rotation.is_some() {
             let _ = write!(header, ",{}_axis_torque_n_m", ws.name);
+        }
+        if w.servo.is_some() {
+            let _ = write!(header, ",{}_travel_m", ws.name);
         }
     }
     if case.output.mass_below_z.is_some() {

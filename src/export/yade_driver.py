@@ -170,6 +170,26 @@ def move_walls(k):
 
 for i in range(len(wall_ids)):
     set_motion(i, 0, 0)
+
+# servo walls (Wall::servo_update): at iteration k the load of step k sets the velocity
+# along the direction for the move k -> k+1: gain (target - R) within +-max_speed,
+# R = -F . direction the particles' push; travel: how far it has moved
+servo_of = [w["servo"] for w in C["walls"]]
+travel = [0.0] * len(wall_ids)
+
+
+def servo_walls():
+    for i, sv in enumerate(servo_of):
+        if sv is None or removed[i]:
+            continue
+        d = Vector3(*sv["direction"])
+        F = Vector3(0, 0, 0)
+        for j in wall_ids[i]:
+            F += O.forces.f(j, True)
+        v = min(max(sv["gain"] * (sv["target"] + F.dot(d)), -sv["max_speed"]), sv["max_speed"])
+        for j in wall_ids[i]:
+            O.bodies[j].state.vel = d * v
+        travel[i] += v * dt
 # (the exporter wrote wall_arm: 1 puts the torque's contact point on the wall's surface, 0.5 mid-overlap)
 arm = C["wall_arm"]
 
@@ -259,7 +279,9 @@ def write_row(k, V, ke):
     cols = [fmt(k * dt), str(k), ctl["name"], fmt(ke), str(n_contacts)]
     for i in range(nw):
         if removed[i]:
-            cols += ["0"] * (6 if axis_of[i] is None else 7)
+            cols += ["0"] * (6 + (axis_of[i] is not None))
+            if servo_of[i] is not None:
+                cols.append(fmt(travel[i]))
             continue
         F = Vector3(0, 0, 0)
         for j in wall_ids[i]:
@@ -269,6 +291,8 @@ def write_row(k, V, ke):
         if axis_of[i] is not None:
             p, a = axis_of[i]
             cols.append(fmt((tq[i] - p.cross(F)).dot(a)))
+        if servo_of[i] is not None:
+            cols.append(fmt(travel[i]))
     if C["mass_below_z"] is not None:
         z = C["mass_below_z"]
         cols.append(fmt(math.fsum(info[t][0] for t, b in bid.items() if O.bodies[b].state.pos[2] < z)))
@@ -362,6 +386,7 @@ def hook():
         # the end of talus's step k (its walls then move on as the phase now says)
         advance_phase(k)
     move_walls(k)
+    servo_walls()
 
 
 __main__._talus_hook = hook

@@ -222,6 +222,31 @@ pub struct Rotation {
     pub reach: f64,
 }
 
+/// A servo: the wall moves along `direction` at gain x (target - R), limited to
+/// +-max_speed, R = -force . direction the particles' push against it.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Servo {
+    /// Unit vector: the way the wall moves to press harder.
+    pub direction: Vec3,
+    /// The load to hold (N).
+    pub target: f64,
+    /// m/s per N.
+    pub gain: f64,
+    /// m/s.
+    pub max_speed: f64,
+    /// How far the wall has moved along `direction` (m).
+    pub travel: f64,
+}
+
+impl Servo {
+    /// The speed along the direction for a wall that carries `force` (m/s).
+    #[inline]
+    pub fn speed(&self, force: Vec3) -> f64 {
+        let push = -force.dot(&self.direction);
+        (self.gain * (self.target - push)).clamp(-self.max_speed, self.max_speed)
+    }
+}
+
 /// A named wall with its material, prescribed motion and accumulated load.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Wall {
@@ -236,6 +261,8 @@ pub struct Wall {
     pub rotation: Option<Rotation>,
     /// The oscillation's velocity at the current time (m/s; zero without one).
     pub osc_velocity: Vec3,
+    /// A servo that sets the velocity from the load every step, if any.
+    pub servo: Option<Servo>,
     /// Whether the wall still takes part (a removed gate does not).
     pub active: bool,
     /// Simulated time at which the wall is removed, if any (s).
@@ -262,6 +289,7 @@ impl Wall {
             oscillation: None,
             rotation: None,
             osc_velocity: Vec3::zeros(),
+            servo: None,
             active: true,
             remove_at: None,
             force: Vec3::zeros(),
@@ -294,6 +322,16 @@ impl Wall {
             }
             None => self.rotation.take().map(|r| Rotation { rate: 0.0, ..r }),
         };
+    }
+
+    /// A servo wall's velocity for the next step, from the load of the last
+    /// (and how far that step will take it along its direction).
+    pub fn servo_update(&mut self, dt: f64) {
+        if let Some(s) = &mut self.servo {
+            let v = s.speed(self.force);
+            self.velocity = s.direction * v;
+            s.travel += v * dt;
+        }
     }
 
     /// Move the wall over one step, from time t - dt to t: translation,
