@@ -442,8 +442,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="change one value of the case in every engine (as `talus run --set`); repeatable")
     ap.add_argument("--reuse", action="store_true",
-                    help="read the runs already finished in the output folder with the same command instead of running them again "
-                         "(a long comparison can be finished in parts)")
+                    help="read the runs already finished in the output folder with the same command line instead of running them again "
+                         "(a long comparison can be finished in parts; an edited case file or a rebuilt talus is not detected)")
     a = ap.parse_args(argv)
     global REUSE
     SETS[:] = a.set

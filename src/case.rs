@@ -1132,7 +1132,10 @@ impl Case {
                 pos("pressure", p, "Pa")?;
                 pos("area", a, "m^2")?;
             }
-            _ => return Err(self.err(&at, "", "give the load to hold as `force` (N), or as `pressure` (Pa) and `area` (m^2)")),
+            (f, p, a) => {
+                let given = format!("force {f:?}, pressure {p:?}, area {a:?}");
+                return Err(self.err(&at, given, "give the load to hold as `force` (N), or as `pressure` (Pa) and `area` (m^2)"));
+            }
         }
         pos("gain", sv.gain, "m/s per N")?;
         pos("max_speed", sv.max_speed, "m/s")?;
@@ -1147,7 +1150,8 @@ impl Case {
             (_, None) => return Err(self.err(&format!("{at}.direction"), "", "a servo wall that is not a plane needs the direction it moves to press on the particles")),
         }
         if w.velocity != [0.0; 3] || w.rotation.is_some() || w.oscillation.is_some() {
-            return Err(self.err(&at, "", "a servo wall moves only as its servo says: leave out its velocity, rotation and oscillation"));
+            let given = format!("velocity {:?}, rotation {:?}, oscillation {:?}", w.velocity, w.rotation, w.oscillation);
+            return Err(self.err(&at, given, "a servo wall moves only as its servo says: leave out its velocity, rotation and oscillation"));
         }
         if let Some(ph) = self.phases.iter().find(|p| p.moves.iter().any(|m| m.wall == w.name)) {
             return Err(self.err(&format!("phase.{}.move", ph.name), format!("\"{}\"", w.name), "a servo wall moves only as its servo says"));

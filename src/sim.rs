@@ -2,7 +2,7 @@
 //! checkpoint saves. The time step, in order:
 //!
 //! 1. integrator first half (Verlet: half kick + drift; Gear: predict);
-//! 2. walls move by their prescribed velocities;
+//! 2. walls move as prescribed (servo, translation, oscillation, rotation);
 //! 3. neighbour lists are checked (domain, NaN) and rebuilt if any particle moved
 //!    more than half the skin;
 //! 4. forces: gravity, then each particle's pair forces in order of its

@@ -327,7 +327,7 @@ fn a_bad_servo_is_refused_naming_the_key() {
     std::fs::copy(common::cases_dir().join("beds/shear-cell.csv"), b.join("shear-cell.csv")).unwrap();
     let servo = "servo = { force = 10.0, gain = 0.01, max_speed = 0.05 }";
     for (to, expect) in [
-        ("servo = { force = 10.0, pressure = 5.0, area = 2.0, gain = 0.01, max_speed = 0.05 }", "wall.lid.servo: give the load to hold"),
+        ("servo = { force = 10.0, pressure = 5.0, area = 2.0, gain = 0.01, max_speed = 0.05 }", "wall.lid.servo = force Some(10.0), pressure Some(5.0), area Some(2.0): give the load to hold"),
         ("servo = { force = 10.0, gain = -0.01, max_speed = 0.05 }", "wall.lid.servo.gain = -0.01"),
         ("servo = { force = 10.0, gain = 0.01, max_speed = 0.05, direction = [0.0, 0.0, 0.0] }", "wall.lid.servo.direction"),
         ("servo = { force = 10.0, gain = 0.01, max_speed = 0.05 }\nvelocity = [0.0, 0.0, -0.1]", "leave out its velocity"),

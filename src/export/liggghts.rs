@@ -344,7 +344,8 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                         // motion within the plane is its surface velocity
                         let along = |v: Vec3| (v - n * v.dot(&n)).norm() <= 1e-12 * v.norm();
                         for (m, a) in motions.iter_mut().zip(&at) {
-                            if m.rotation.is_some_and(|r| r.2 != 0.0) {
+                            if m.rotation.is_some() {
+                                // (at rate 0 too: the deck gives no axis torque for a plane)
                                 return Err(refuse(case, &format!("{}.rotation", a.key), PLANE_MOTION));
                             }
                             if m.oscillation.is_some_and(|o| !along(o.0)) {
@@ -356,6 +357,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                                 }
                                 surface_vel = m.velocity - n * m.velocity.dot(&n);
                                 m.velocity -= surface_vel;
+                                // LIGGGHTS moves no mesh that has a surface velocity
+                                if m.velocity != Vec3::zeros() {
+                                    return Err(refuse(case, &format!("{}.velocity", a.key), PLANE_MOTION));
+                                }
                             }
                             m.rotation = None;
                         }
@@ -393,8 +398,8 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             }
             Shape::Disc(_) => {
                 for (mo, a) in motions.iter().zip(&at) {
-                    if mo.rotation.is_some_and(|r| r.2 != 0.0) {
-                        return Err(refuse(case, &format!("{}.rotation", a.key), "a ball wall is an atom moved by `fix move` in the LIGGGHTS deck: turning balls are not written"));
+                    if mo.rotation.is_some() {
+                        return Err(refuse(case, &format!("{}.rotation", a.key), "a ball wall is an atom moved by `fix move` in the LIGGGHTS deck: turning balls (and a ball's axis torque) are not written"));
                     }
                     if mo.oscillation.is_some() && mo.velocity != Vec3::zeros() {
                         return Err(refuse(case, &format!("{}.oscillation", a.key), "a ball wall is an atom moved by one `fix move` in the LIGGGHTS deck: it translates or oscillates, not both"));
@@ -600,7 +605,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             return;
         }
         match x.kind {
-            Kind::Mesh if x.motions.is_empty() => {
+            Kind::Mesh if x.motions.is_empty() && x.axis.is_none() => {
                 for (k, q) in ["fx", "fy", "fz", "tx", "ty", "tz"].iter().enumerate() {
                     let _ = writeln!(w, "variable {n}_{q} equal f_{n}[{}]", k + 1);
                 }

@@ -145,12 +145,26 @@ def set_motion(i, phase, k):
             for j in wall_ids[i]:
                 O.bodies[j].state.vel = Vector3(*m["velocity"])
                 O.bodies[j].state.angVel = Vector3(0, 0, 0)
+            if k == 0 and dynamic(m):
+                # the laws' first look (iteration 0) sees Wall::velocity_at at t = 0
+                for j in wall_ids[i]:
+                    s = O.bodies[j].state
+                    if m["osc"] is not None:
+                        s.vel += Vector3(*m["osc"][0]) * m["osc"][1]
+                    if m["rot"] is not None and m["rot"][2] != 0.0:
+                        s.vel += (axis_of[i][1] * m["rot"][2]).cross(s.pos - axis_of[i][0])
+                        s.angVel = axis_of[i][1] * m["rot"][2]
+
+
+def gone(i, k):
+    """Whether wall i is out of the run after step k (talus: inactive, neither servo nor load)."""
+    return removed[i] or i in removed_soon or removal.get(i) == k
 
 
 def move_walls(k):
     """The velocities that move each wall from its pose at step k to that at step k+1."""
     for i, m in enumerate(motion_of):
-        if removed[i] or m is None:
+        if gone(i, k) or m is None:
             continue
         d = Vector3(*m["velocity"]) * dt
         if m["osc"] is not None:
@@ -178,9 +192,9 @@ servo_of = [w["servo"] for w in C["walls"]]
 travel = [0.0] * len(wall_ids)
 
 
-def servo_walls():
+def servo_walls(k):
     for i, sv in enumerate(servo_of):
-        if sv is None or removed[i]:
+        if sv is None or gone(i, k):
             continue
         d = Vector3(*sv["direction"])
         F = Vector3(0, 0, 0)
@@ -386,7 +400,7 @@ def hook():
         # the end of talus's step k (its walls then move on as the phase now says)
         advance_phase(k)
     move_walls(k)
-    servo_walls()
+    servo_walls(k)
 
 
 __main__._talus_hook = hook

@@ -36,7 +36,8 @@ pub enum Region {
 
 /// A triangle mesh wall: vertices, triangles, their adjacency and feature
 /// owners, bounding boxes and the grid that finds candidates. Vertices move only
-/// through [`Mesh::translate`] (which keeps boxes and grid in step). Serialised
+/// through [`Mesh::translate`] and [`Mesh::rotate`] (which keep boxes and grid in
+/// step). Serialised
 /// without its grid (the checkpoint layout is unchanged); deserialising builds it.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(from = "MeshFields")]

@@ -218,8 +218,10 @@ pub struct Rotation {
     /// Angular velocity about the axis (rad/s).
     pub rate: f64,
     /// How far from the axis the wall reaches within the domain (m), for the
-    /// neighbour list's displacement bound.
+    /// neighbour list's displacement bound (a plane's is made anew as its axis moves).
     pub reach: f64,
+    /// The domain (lo, hi) a plane's reach is measured in.
+    pub domain: (Vec3, Vec3),
 }
 
 /// A servo: the wall moves along `direction` at gain x (target - R), limited to
@@ -318,7 +320,7 @@ impl Wall {
         self.rotation = match rotation {
             Some((axis, point, rate)) => {
                 let axis = axis.normalize();
-                Some(Rotation { axis, point, rate, reach: self.shape.reach_from_axis(point, axis, lo, hi) })
+                Some(Rotation { axis, point, rate, reach: self.shape.reach_from_axis(point, axis, lo, hi), domain: (lo, hi) })
             }
             None => self.rotation.take().map(|r| Rotation { rate: 0.0, ..r }),
         };
@@ -364,6 +366,9 @@ impl Wall {
             }
             if let Some(r) = &mut self.rotation {
                 r.point += d;
+                if let Shape::Plane(_) = self.shape {
+                    r.reach = self.shape.reach_from_axis(r.point, r.axis, r.domain.0, r.domain.1);
+                }
             }
         }
         if let Some(r) = &self.rotation {
