@@ -155,7 +155,9 @@ pub struct ContactSection {
     pub stiffness: Option<HookeExplicit>,
     /// Rolling resistance, a law of its own beside the normal and tangential
     /// ones: "cdt" (constant directional torque, LIGGGHTS `rolling_friction
-    /// cdt`), with each material's `rolling_friction`. None: no rolling resistance.
+    /// cdt`) or "epsd2" (elastic-plastic spring-dashpot, LIGGGHTS
+    /// `rolling_friction epsd2`), with each material's `rolling_friction`.
+    /// None: no rolling resistance.
     pub rolling: Option<RollingModel>,
 }
 
@@ -167,6 +169,12 @@ pub enum RollingModel {
     /// spin (LIGGGHTS `rolling_model_cdt.h`): R = R* between particles, the
     /// particle's radius on a wall; the twisting part removed.
     Cdt,
+    /// Elastic-plastic spring (LIGGGHTS `rolling_model_epsd2.h`, after Iwashita
+    /// and Oda): a rolling torque kept per contact, incremented by
+    /// k_r w_t dt with k_r = k_t R^2 (k_t the tangential stiffness at this
+    /// overlap, w_t the relative spin's rolling part) and capped at
+    /// mu_r |F_n| R; no dashpot. Zero again when the contact ends.
+    Epsd2,
 }
 
 /// Where the force of a wall contact acts on the particle.
@@ -855,7 +863,7 @@ impl Case {
                 return Err(self.err(
                     &format!("materials.{}.rolling_friction", m.name),
                     m.rolling_friction,
-                    "a rolling friction coefficient needs a rolling resistance law: set contact.rolling = \"cdt\"",
+                    "a rolling friction coefficient needs a rolling resistance law: set contact.rolling = \"cdt\" or \"epsd2\"",
                 ));
             }
         }

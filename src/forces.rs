@@ -130,6 +130,7 @@ fn contact<L: ContactLaw>(
     g: &ContactGeom,
     m: &Motion,
     hist: &mut Vec3,
+    roll: &mut Vec3,
     dt: f64,
 ) -> ContactForce {
     let (pi, pair) = match g.r_eff {
@@ -139,7 +140,7 @@ fn contact<L: ContactLaw>(
             (pi, law.pair(pm, pi))
         }
     };
-    law.contact(o, pm, pi, &pair, g, m, hist, dt)
+    law.contact(o, pm, pi, &pair, g, m, hist, roll, dt)
 }
 
 fn sweep<L: ContactLaw>(
@@ -180,37 +181,16 @@ fn pair_forces<L: ContactLaw>(
     // does not depend on the order), so the gather skips the free ones
     let touched = nl.touched.reset(p.len());
     let pr: &Particles = p;
-    let counts = nl
-        .pairs
-        .par_iter()
-        .zip(nl.pair_hist.par_iter_mut())
-        .zip(nl.pair_touch.par_iter_mut().zip(nl.pair_out.par_iter_mut()))
-        .zip(consts.par_iter().zip(nl.pair_inertia.par_iter()))
-        .with_min_len(s.grain)
-        .map(|(((&(a, b), hist), (touch, out)), (pair, &pi))| {
-            let (a, b) = (a as usize, b as usize);
-            // invariant: a pair whose flag is down has zeros in `out`
-            let touch_was = *touch;
-            let Some(g) = shapes.pair(pr, a, b) else {
-                if *hist != Vec3::zeros() {
-                    *hist = Vec3::zeros();
-                }
-                if touch_was {
-                    *touch = false;
-                    *out = PairOut::default();
-                }
-                return (0, 0);
-            };
-            let pm = table.get(pr.material[a], pr.material[b]);
-            let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
-            let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, s.dt);
-            *touch = true;
-            *out = PairOut { force: c.force, torque_a: c.torque_i, torque_b: c.torque_j };
-            touched[a].store(true, Ordering::Relaxed);
-            touched[b].store(true, Ordering::Relaxed);
-            (1, (a < n_own) as usize)
-        })
-        .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1));
+    // the rolling spring torques where the law keeps them (epsd2), else none:
+    // two monomorphised sweeps, so that the laws without add nothing per pair
+    let n_pairs = nl.pairs.len();
+    let ev = PairEval { law, s, pr, shapes, table, touched, n_own };
+    let lists = PairLists { pairs: &nl.pairs, hist: &mut nl.pair_hist, touch: &mut nl.pair_touch, out: &mut nl.pair_out, consts, inertia: &nl.pair_inertia };
+    let counts = if nl.pair_roll.len() == n_pairs && n_pairs > 0 {
+        ev.sweep(lists, nl.pair_roll.par_iter_mut().map(Some))
+    } else {
+        ev.sweep(lists, (0..n_pairs).into_par_iter().map(|_| None))
+    };
     let (start, incident, rows, touch, out) = (&nl.incident_start, &nl.incident, &nl.row_start, &nl.pair_touch, &nl.pair_out);
     let gather = |(i, (f, t)): (usize, (&mut Vec3, &mut Vec3))| {
             // the pair results a later particle will read, fetched ahead
@@ -255,6 +235,70 @@ fn pair_forces<L: ContactLaw>(
     counts
 }
 
+/// What every pair's evaluation reads (see [`pair_forces`]).
+struct PairEval<'a, L: ContactLaw> {
+    law: L,
+    s: &'a SweepSettings,
+    pr: &'a Particles,
+    shapes: &'a Shapes,
+    table: &'a PairTable,
+    touched: &'a [std::sync::atomic::AtomicBool],
+    n_own: usize,
+}
+
+/// The pair list's arrays the evaluation reads and writes.
+struct PairLists<'a, L: ContactLaw> {
+    pairs: &'a [(u32, u32)],
+    hist: &'a mut [Vec3],
+    touch: &'a mut [bool],
+    out: &'a mut [PairOut],
+    consts: &'a [L::Pair],
+    inertia: &'a [PairInertia],
+}
+
+impl<L: ContactLaw> PairEval<'_, L> {
+    /// Every pair's force and torques into `out` (in parallel, any order);
+    /// `rolls` gives each pair its rolling spring torque, or none. Returns
+    /// (contacts evaluated, contacts owned).
+    fn sweep<'r>(&self, l: PairLists<'_, L>, rolls: impl IndexedParallelIterator<Item = Option<&'r mut Vec3>>) -> (usize, usize) {
+        let PairEval { law, s, pr, shapes, table, touched, n_own } = *self;
+        l.pairs
+            .par_iter()
+            .zip(l.hist.par_iter_mut().zip(rolls))
+            .zip(l.touch.par_iter_mut().zip(l.out.par_iter_mut()))
+            .zip(l.consts.par_iter().zip(l.inertia.par_iter()))
+            .with_min_len(s.grain)
+            .map(|(((&(a, b), (hist, roll)), (touch, out)), (pair, &pi))| {
+                let (a, b) = (a as usize, b as usize);
+                // invariant: a pair whose flag is down has zeros in `out`
+                let touch_was = *touch;
+                let Some(g) = shapes.pair(pr, a, b) else {
+                    if *hist != Vec3::zeros() {
+                        *hist = Vec3::zeros();
+                    }
+                    if let Some(r) = roll {
+                        *r = Vec3::zeros();
+                    }
+                    if touch_was {
+                        *touch = false;
+                        *out = PairOut::default();
+                    }
+                    return (0, 0);
+                };
+                let pm = table.get(pr.material[a], pr.material[b]);
+                let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
+                let mut no_roll = Vec3::zeros();
+                let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, roll.unwrap_or(&mut no_roll), s.dt);
+                *touch = true;
+                *out = PairOut { force: c.force, torque_a: c.torque_i, torque_b: c.torque_j };
+                touched[a].store(true, Ordering::Relaxed);
+                touched[b].store(true, Ordering::Relaxed);
+                (1, (a < n_own) as usize)
+            })
+            .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1))
+    }
+}
+
 /// Walls, per owned particle in candidate order (the particles with wall
 /// candidates in parallel; each thread sums its part of every wall's load
 /// exactly, in fixed point, so the total is the same for any thread count);
@@ -271,13 +315,18 @@ fn wall_forces<L: ContactLaw>(
     let (_, consts) = nl.law_constants.get::<L>();
     let (wall_start, wall_feat, wall_inertia, owners) = (&nl.wall_start, &nl.wall_feat, &nl.wall_inertia, &nl.wall_owners);
     // each such particle's slice of the wall history (the others' are empty)
-    let mut hist: Vec<&mut [Vec3]> = Vec::with_capacity(owners.len());
+    // (and of the rolling spring torques where the law keeps them; else empty slices)
+    let mut hist: Vec<(&mut [Vec3], &mut [Vec3])> = Vec::with_capacity(owners.len());
+    let rolling = nl.wall_roll.len() == nl.wall_hist.len() && !nl.wall_hist.is_empty();
     let mut rest: &mut [Vec3] = &mut nl.wall_hist;
+    let mut rest_roll: &mut [Vec3] = &mut nl.wall_roll;
     for &i in owners {
         let len = (wall_start[i as usize + 1] - wall_start[i as usize]) as usize;
         let (h, r) = std::mem::take(&mut rest).split_at_mut(len);
-        hist.push(h);
+        let (hr, rr) = std::mem::take(&mut rest_roll).split_at_mut(if rolling { len } else { 0 });
+        hist.push((h, hr));
         rest = r;
+        rest_roll = rr;
     }
     let pr: &Particles = p;
     let ws: &[Wall] = walls;
@@ -287,7 +336,7 @@ fn wall_forces<L: ContactLaw>(
         .into_par_iter()
         .zip(owners.par_iter())
         .with_min_len((s.grain / 4).max(1))
-        .fold(empty, |(mut loads, mut contacts, mut updates, mut hits), (hist, &i)| {
+        .fold(empty, |(mut loads, mut contacts, mut updates, mut hits), ((hist, roll), &i)| {
             let i = i as usize;
             let (lo, hi) = (wall_start[i] as usize, wall_start[i + 1] as usize);
             // all of this particle's wall contacts first, so that coincident ones can
@@ -297,12 +346,15 @@ fn wall_forces<L: ContactLaw>(
                 hits.push(shapes.wall_hit(pr, i, &ws[wi as usize], feat));
             }
             merge_coincident(&wall_feat[lo..hi], &mut hits, pr.radius[i]);
-            carry_history(&wall_feat[lo..hi], &hits, hist);
+            carry_history(&wall_feat[lo..hi], &hits, hist, roll);
             let (mut f, mut t) = (pr.force[i], pr.torque[i]);
+            let mut no_roll = Vec3::zeros();
             for (k, hit) in hits.iter().enumerate() {
                 let h = &mut hist[k];
+                let r = roll.get_mut(k).unwrap_or(&mut no_roll);
                 let Some(hit) = hit else {
                     *h = Vec3::zeros();
+                    *r = Vec3::zeros();
                     continue;
                 };
                 let wi = wall_feat[lo + k].0 as usize;
@@ -314,7 +366,7 @@ fn wall_forces<L: ContactLaw>(
                 // moves with the wall's velocity there (a turning wall's rotation included)
                 let point = g.point(pr.pos[i]);
                 let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity_at(point), w_j: Vec3::zeros() };
-                let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, s.dt);
+                let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, r, s.dt);
                 f += c.force;
                 t += c.torque_i;
                 add_load(&mut loads[wi], point, &c);

@@ -25,19 +25,35 @@ pub struct Domain {
     pub hi: Vec3,
 }
 
+/// One contact's history: the shear spring's, and the rolling spring's torque
+/// where the case's rolling law keeps one (`epsd2`; zero otherwise).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Hist {
+    pub shear: Vec3,
+    pub roll: Vec3,
+}
+
+impl Hist {
+    pub const ZERO: Hist = Hist { shear: Vec3::new(0.0, 0.0, 0.0), roll: Vec3::new(0.0, 0.0, 0.0) };
+    #[inline(always)]
+    pub fn is_zero(&self) -> bool {
+        *self == Hist::ZERO
+    }
+}
+
 /// Contact history keyed by global ids: pairs (id_a < id_b) and particle-wall
 /// features (id, wall, feature), each sorted by key. This is what migrates with
 /// particles between ranks and what a checkpoint stores.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct History {
-    pub pairs: Vec<((u64, u64), Vec3)>,
-    pub walls: Vec<((u64, u16, u32), Vec3)>,
+    pub pairs: Vec<((u64, u64), Hist)>,
+    pub walls: Vec<((u64, u16, u32), Hist)>,
 }
 
 impl History {
     /// Merge another sorted, deduplicated history into this one (equal keys once).
     pub fn merge(&mut self, other: History) {
-        fn merge_sorted<K: Ord + Copy>(a: &mut Vec<(K, Vec3)>, b: Vec<(K, Vec3)>) {
+        fn merge_sorted<K: Ord + Copy>(a: &mut Vec<(K, Hist)>, b: Vec<(K, Hist)>) {
             let old = std::mem::take(a);
             a.reserve(old.len() + b.len());
             let (mut i, mut j) = (0, 0);
@@ -75,6 +91,13 @@ pub struct NeighborList {
     /// Local index pairs (a, b) with id[a] < id[b], in storage order of a.
     pub pairs: Vec<(u32, u32)>,
     pub pair_hist: Vec<Vec3>,
+    /// Each pair's rolling spring torque where the case's rolling law keeps
+    /// one (`rolling_history`), else empty.
+    #[serde(default)]
+    pub pair_roll: Vec<Vec3>,
+    /// Whether contacts keep a rolling spring torque (`contact.rolling = "epsd2"`).
+    #[serde(default)]
+    pub rolling_history: bool,
     /// R*, m*, sqrt(m*) of each pair (fixed for a pair; computed at build).
     pub pair_inertia: Vec<PairInertia>,
     /// Particle -> range in `wall_feat`.
@@ -82,6 +105,9 @@ pub struct NeighborList {
     /// (wall index, feature index).
     pub wall_feat: Vec<(u16, u32)>,
     pub wall_hist: Vec<Vec3>,
+    /// Each wall candidate's rolling spring torque (as `pair_roll`).
+    #[serde(default)]
+    pub wall_roll: Vec<Vec3>,
     /// R*, m*, sqrt(m*) of each wall candidate (the particle against a flat or
     /// curved wall; computed at build, like `pair_inertia`).
     #[serde(skip)]
@@ -199,21 +225,35 @@ impl NeighborList {
     pub fn take_history(&self, p: &Particles) -> History {
         let mut h = History::default();
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
-            if self.pair_hist[k] != Vec3::zeros() {
-                h.pairs.push(((p.id[a as usize], p.id[b as usize]), self.pair_hist[k]));
+            let e = self.pair_entry(k);
+            if !e.is_zero() {
+                h.pairs.push(((p.id[a as usize], p.id[b as usize]), e));
             }
         }
         h.pairs.sort_unstable_by_key(|x| x.0);
         for i in 0..self.wall_start.len().saturating_sub(1).min(p.len()) {
             for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
-                if self.wall_hist[k] != Vec3::zeros() {
+                let e = self.wall_entry(k);
+                if !e.is_zero() {
                     let (w, f) = self.wall_feat[k];
-                    h.walls.push(((p.id[i], w, f), self.wall_hist[k]));
+                    h.walls.push(((p.id[i], w, f), e));
                 }
             }
         }
         h.walls.sort_unstable_by_key(|x| x.0);
         h
+    }
+
+    /// Pair k's history (shear and rolling).
+    #[inline]
+    pub fn pair_entry(&self, k: usize) -> Hist {
+        Hist { shear: self.pair_hist[k], roll: self.pair_roll.get(k).copied().unwrap_or_else(Vec3::zeros) }
+    }
+
+    /// Wall candidate k's history (shear and rolling).
+    #[inline]
+    pub fn wall_entry(&self, k: usize) -> Hist {
+        Hist { shear: self.wall_hist[k], roll: self.wall_roll.get(k).copied().unwrap_or_else(Vec3::zeros) }
     }
 
     /// Rebuild the lists, carrying contact history over by global ids.
@@ -241,13 +281,16 @@ impl NeighborList {
     /// from `old_pair` (sorted by ids) and its R*, m*. On several threads,
     /// blocks of particles find their rows at once and the blocks are joined
     /// in order: the same list as on one.
-    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Vec3)]) {
+    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Hist)]) {
         let n = p.len();
+        let rolling = self.rolling_history;
         let mut rows = Rows {
             pairs: std::mem::take(&mut self.pairs),
             hist: std::mem::take(&mut self.pair_hist),
+            roll: std::mem::take(&mut self.pair_roll),
             inertia: std::mem::take(&mut self.pair_inertia),
             start: std::mem::take(&mut self.row_start),
+            rolling,
         };
         rows.clear();
         let first = history_runs(p, old_pair);
@@ -258,7 +301,7 @@ impl NeighborList {
             let blocks: Vec<Rows> = (0..n.div_ceil(ROW_BLOCK))
                 .into_par_iter()
                 .map(|b| {
-                    let mut r = Rows::default();
+                    let mut r = Rows { rolling, ..Rows::default() };
                     r.find(p, grid, &old, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n));
                     r
                 })
@@ -273,12 +316,14 @@ impl NeighborList {
                 rows.start.extend(b.start.iter().map(|s| s + base));
                 rows.pairs.extend_from_slice(&b.pairs);
                 rows.hist.extend_from_slice(&b.hist);
+                rows.roll.extend_from_slice(&b.roll);
                 rows.inertia.extend_from_slice(&b.inertia);
             }
         }
         rows.start.push(rows.pairs.len() as u32);
         self.pairs = rows.pairs;
         self.pair_hist = rows.hist;
+        self.pair_roll = rows.roll;
         self.pair_inertia = rows.inertia;
         self.row_start = rows.start;
     }
@@ -346,10 +391,11 @@ impl NeighborList {
 
     /// Every owned particle's wall candidates `(wall, feature)` within reach,
     /// each with its history from `old_wall` (sorted by key) and its R*, m*.
-    fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: &[((u64, u16, u32), Vec3)]) {
+    fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: &[((u64, u16, u32), Hist)]) {
         self.wall_start.clear();
         self.wall_feat.clear();
         self.wall_hist.clear();
+        self.wall_roll.clear();
         self.wall_inertia.clear();
         self.wall_owners.clear();
         let mut feats = Vec::new();
@@ -373,8 +419,11 @@ impl NeighborList {
                     self.wall_inertia.push(pi);
                     self.wall_feat.push((w as u16, f));
                     let key = (p.id[i], w as u16, f);
-                    let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or_else(|_| Vec3::zeros());
-                    self.wall_hist.push(h);
+                    let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or(Hist::ZERO);
+                    self.wall_hist.push(h.shear);
+                    if self.rolling_history {
+                        self.wall_roll.push(h.roll);
+                    }
                 }
             }
             if self.wall_feat.len() > before {
@@ -389,7 +438,7 @@ impl NeighborList {
 /// particle's run of it starts (`first[a]`: the first entry whose lower id is
 /// particle a's; the end of the history if there is none).
 struct OldPairs<'a> {
-    pairs: &'a [((u64, u64), Vec3)],
+    pairs: &'a [((u64, u64), Hist)],
     first: &'a [u32],
 }
 
@@ -399,7 +448,7 @@ struct OldPairs<'a> {
 /// them), else by a binary search per run. Looking each particle up in the
 /// history instead (a binary search per particle, in storage order) misses
 /// the cache at every step of every search.
-fn history_runs(p: &Particles, old_pair: &[((u64, u64), Vec3)]) -> Vec<u32> {
+fn history_runs(p: &Particles, old_pair: &[((u64, u64), Hist)]) -> Vec<u32> {
     let n = p.len();
     let end = old_pair.len() as u32;
     if old_pair.is_empty() {
@@ -454,14 +503,18 @@ const ROW_BLOCK: usize = 2048;
 struct Rows {
     pairs: Vec<(u32, u32)>,
     hist: Vec<Vec3>,
+    /// Rolling spring torques, kept where `rolling`.
+    roll: Vec<Vec3>,
     inertia: Vec<PairInertia>,
     start: Vec<u32>,
+    rolling: bool,
 }
 
 impl Rows {
     fn clear(&mut self) {
         self.pairs.clear();
         self.hist.clear();
+        self.roll.clear();
         self.inertia.clear();
         self.start.clear();
     }
@@ -515,9 +568,12 @@ impl Rows {
                 while cursor < old_pair.len() && old_pair[cursor].0 < key {
                     cursor += 1;
                 }
-                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Vec3::zeros() };
+                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Hist::ZERO };
                 self.pairs.push((a as u32, b));
-                self.hist.push(h);
+                self.hist.push(h.shear);
+                if self.rolling {
+                    self.roll.push(h.roll);
+                }
                 let bi = b as usize;
                 self.inertia.push(PairInertia::particles(ra, p.radius[bi], p.mass[a], p.mass[bi]));
             }

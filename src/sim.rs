@@ -121,6 +121,7 @@ impl Simulation {
         };
         let skin = s.skin.unwrap_or(0.2 * rmin);
         let mut nl = NeighborList::new(skin);
+        nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2);
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
         check_initial_overlaps(&case, &p, &nl)?;
@@ -393,6 +394,7 @@ impl Simulation {
         self.par.reorder_now = true;
         self.par.take_own(&mut st.p, &mut st.gear, &mut hist);
         let hist = self.par.migrate(&mut st.p, &mut st.gear, hist);
+        st.nl.rolling_history = self.state.nl.rolling_history;
         st.nl.build_with(&st.p, &st.walls, &hist);
         self.state = st;
     }

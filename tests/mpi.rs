@@ -179,3 +179,22 @@ fn ranks_times_threads_give_the_serial_single_thread_state() {
     let two_by_two = hash_of(2, &case, &d.path().join("p2"), &["--steps", "1500", "--threads", "2"]);
     assert_eq!(two_by_two, serial, "2 ranks x 2 threads differ from 1 rank x 1 thread");
 }
+
+#[test]
+fn rolling_spring_history_is_bit_identical_across_ranks_and_restarts_on_another_count() {
+    // the pile with the epsd2 rolling law: each contact's rolling spring torque
+    // migrates with its particles and is checkpointed (issue 14)
+    let d = tempfile::tempdir().unwrap();
+    let case = write_case(d.path(), "pile-rolling.toml", |c| {
+        c.contact.rolling = Some(talus::case::RollingModel::Epsd2);
+        lattice(c).count = 600;
+    });
+    let steps = ["--steps", "2400"];
+    let serial = hash_of(0, &case, &d.path().join("s"), &steps);
+    assert_eq!(hash_of(2, &case, &d.path().join("p2"), &steps), serial, "2 ranks differ from the serial run");
+    let a = d.path().join("a");
+    hash_of(2, &case, &a, &["--steps", "1200"]);
+    let ck = a.join("checkpoint.bin");
+    let h_b = hash_of(3, &case, &d.path().join("b"), &["--steps", "1200", "--restart", ck.to_str().unwrap()]);
+    assert_eq!(h_b, serial, "2 ranks then 3 ranks from the checkpoint differ from one serial run");
+}

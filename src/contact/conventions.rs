@@ -25,6 +25,12 @@ pub struct ContactOptions {
     pub mixing: Mixing,
     /// Rolling resistance (no convention default: given or none).
     pub rolling: Option<crate::case::RollingModel>,
+    /// Against a wall, the epsd2 rolling spring is driven by the particle's
+    /// spin scaled by arm / (r - delta) (LIGGGHTS 3.8's `surface_model_default.h`
+    /// hands its rolling models the wall contact's `wr = cr w_i / r`, which
+    /// epsd2 integrates as it is; cdt uses only its direction); else by the
+    /// spin itself (talus, YADE).
+    pub rolling_wall_spin_scaled: bool,
 }
 
 /// The options of the case's `[contact]` section: each one given, or its
@@ -71,5 +77,6 @@ pub fn resolve(c: &ContactSection) -> ContactOptions {
         },
         mixing,
         rolling: c.rolling,
+        rolling_wall_spin_scaled: conv == Liggghts,
     }
 }

@@ -26,7 +26,7 @@ pub mod hooke;
 pub use conventions::ContactOptions;
 pub use geometry::{ContactGeom, Lever, Motion, Shapes};
 
-use crate::case::{ContactSection, ModelName};
+use crate::case::{ContactSection, ModelName, RollingModel};
 use crate::dim::Vec3;
 use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
@@ -156,9 +156,10 @@ pub trait ContactLaw: Copy + PartialEq + Send + Sync + 'static {
         g: &ContactGeom,
         m: &Motion,
         hist: &mut Vec3,
+        roll: &mut Vec3,
         dt: f64,
     ) -> ContactForce {
-        evaluate(*self, o, pm, pi, pair, g, m, hist, dt)
+        evaluate(*self, o, pm, pi, pair, g, m, hist, roll, dt)
     }
 }
 
@@ -247,7 +248,8 @@ pub struct ContactForce {
 /// velocity that drives the shear spring (the same, or YADE's variant, see
 /// [`ShearKinematics`]) come from the geometry and the bodies' motion. `hist`
 /// is the law's history (m for `Total`, N for `Incremental`), zero at first
-/// touch. `dt` is the time step (s).
+/// touch; `roll` the rolling spring's torque (N m) where the case's rolling
+/// law keeps one (`epsd2`; untouched otherwise). `dt` is the time step (s).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate<L: ContactLaw>(
@@ -259,6 +261,7 @@ pub fn evaluate<L: ContactLaw>(
     g: &ContactGeom,
     m: &Motion,
     hist: &mut Vec3,
+    roll: &mut Vec3,
     dt: f64,
 ) -> ContactForce {
     let (v_rel, v_shear) = g.velocities(o.tang.kinematics, m);
@@ -269,20 +272,75 @@ pub fn evaluate<L: ContactLaw>(
         f_n = 0.0;
     }
     let v_t = v_shear - g.n * v_shear.dot(&g.n);
-    let cap = pm.friction
-        * match o.tang.cap {
-            FrictionCap::Total => f_n.abs(),
-            FrictionCap::Elastic => c.f_elastic,
-        };
-    let f_t = tangential(c, o.tang.history, cap, g.n, v_t, hist, dt);
+    // the normal force that caps friction (and the rolling spring's torque)
+    let f_cap = match o.tang.cap {
+        FrictionCap::Total => f_n.abs(),
+        FrictionCap::Elastic => c.f_elastic,
+    };
+    let f_t = tangential(c, o.tang.history, pm.friction * f_cap, g.n, v_t, hist, dt);
     let force = g.n * f_n + f_t;
     let (mut torque_i, mut torque_j) = g.torques(force);
-    if o.rolling.is_some() && pm.rolling_friction > 0.0 {
-        let t = rolling_torque(pm.rolling_friction, c.f_elastic, pi, g, m);
-        torque_i -= t;
-        torque_j += t;
+    if let Some(model) = o.rolling {
+        if pm.rolling_friction > 0.0 {
+            let t = match model {
+                RollingModel::Cdt => rolling_torque(pm.rolling_friction, c.f_elastic, pi, g, m),
+                RollingModel::Epsd2 => rolling_spring(pm.rolling_friction, c.kt, f_cap, o.rolling_wall_spin_scaled, pi, g, m, roll, dt),
+            };
+            torque_i -= t;
+            torque_j += t;
+        }
     }
     ContactForce { force, torque_i, torque_j, normal: f_n }
+}
+
+/// The rolling lever: the particle's radius against a wall (LIGGGHTS 3.8.0's
+/// arm for both of its rolling laws), R* between two bodies.
+#[inline(always)]
+fn rolling_arm(pi: PairInertia, g: &ContactGeom) -> f64 {
+    match g.lever {
+        geometry::Lever::AlongNormal { radius_i, radius_j, .. } if radius_j == 0.0 => radius_i,
+        _ => pi.r_eff,
+    }
+}
+
+/// Elastic-plastic rolling spring (`contact.rolling = "epsd2"`, LIGGGHTS
+/// `rolling_model_epsd2.h`): the stored torque `roll` plus k_r w_t dt, with
+/// k_r = k_t R^2 (k_t the tangential stiffness at this overlap, R the rolling
+/// arm) and w_t the relative spin w_i - w_j without its twisting part, capped
+/// in magnitude at mu_r F R (F the normal force that caps friction: |F_n| in
+/// LIGGGHTS's convention); the stored torque is not turned with the contact
+/// (as in LIGGGHTS). No dashpot. Returned as the torque taken from i. Against
+/// a wall, LIGGGHTS's convention scales the spin by arm / (r - delta)
+/// (`wall_spin_scaled`, see [`ContactOptions`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn rolling_spring(
+    mu_r: f64,
+    kt: f64,
+    f_cap: f64,
+    wall_spin_scaled: bool,
+    pi: PairInertia,
+    g: &ContactGeom,
+    m: &Motion,
+    roll: &mut Vec3,
+    dt: f64,
+) -> Vec3 {
+    let arm = rolling_arm(pi, g);
+    let w = match g.lever {
+        geometry::Lever::AlongNormal { arm_i, radius_i, radius_j, .. } if radius_j == 0.0 && wall_spin_scaled => {
+            (m.w_i * arm_i) * (1.0 / (radius_i - g.overlap)) - m.w_j
+        }
+        _ => m.w_i - m.w_j,
+    };
+    let w_t = w - g.n * w.dot(&g.n);
+    let mut t = *roll + w_t * (kt * arm * arm * dt);
+    let cap = f_cap * arm * mu_r;
+    let tm = t.norm();
+    if tm > cap {
+        t *= cap / tm;
+    }
+    *roll = t;
+    t
 }
 
 /// Constant directional torque (`contact.rolling = "cdt"`, LIGGGHTS
@@ -298,10 +356,7 @@ fn rolling_torque(mu_r: f64, f_el: f64, pi: PairInertia, g: &ContactGeom, m: &Mo
     if wm == 0.0 || f_el <= 0.0 {
         return Vec3::zeros();
     }
-    let arm = match g.lever {
-        geometry::Lever::AlongNormal { radius_i, radius_j, .. } if radius_j == 0.0 => radius_i,
-        _ => pi.r_eff,
-    };
+    let arm = rolling_arm(pi, g);
     let t = w * (mu_r * f_el * arm / wm);
     t - g.n * t.dot(&g.n)
 }

@@ -42,7 +42,7 @@ fn geom(overlap: f64) -> ContactGeom {
 }
 
 fn opts(end: EndOfContact, tang: TangentialOptions) -> ContactOptions {
-    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None }
+    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None, rolling_wall_spin_scaled: false }
 }
 
 /// Body i moving at v relative to a body j at rest, neither spinning.
@@ -53,7 +53,7 @@ fn moving(v: Vec3) -> Motion {
 /// One evaluation with the law's per-pair constants made on the spot.
 #[allow(clippy::too_many_arguments)]
 fn eval<L: ContactLaw>(law: L, end: EndOfContact, tang: TangentialOptions, p: &PairMaterial, pi: PairInertia, g: &ContactGeom, v: Vec3, h: &mut Vec3, dt: f64) -> ContactForce {
-    law.contact(&opts(end, tang), p, pi, &law.pair(p, pi), g, &moving(v), h, dt)
+    law.contact(&opts(end, tang), p, pi, &law.pair(p, pi), g, &moving(v), h, &mut Vec3::zeros(), dt)
 }
 
 #[test]
@@ -136,7 +136,7 @@ fn conventions_fill_every_option_not_given() {
     assert_eq!((t.damping, t.end, t.tang.history), (HertzDamping::Liggghts, EndOfContact::Tensile, TangentialHistory::Total));
     assert_eq!((t.tang.cap, t.tang.kinematics, t.wall_arm_overlap, t.mixing), (FrictionCap::Elastic, ShearKinematics::ContactPoint, 0.5, Mixing::Liggghts));
     let l = conventions::resolve(&section(Convention::Liggghts, ModelName::Hertz));
-    assert_eq!(l, ContactOptions { tang: TangentialOptions { cap: FrictionCap::Total, ..t.tang }, ..t });
+    assert_eq!(l, ContactOptions { tang: TangentialOptions { cap: FrictionCap::Total, ..t.tang }, rolling_wall_spin_scaled: true, ..t });
     let y = conventions::resolve(&section(Convention::Yade, ModelName::Hertz));
     assert_eq!((y.damping, y.end, y.tang.history), (HertzDamping::Yade, EndOfContact::Clip, TangentialHistory::Incremental));
     assert_eq!((y.tang.cap, y.tang.kinematics, y.wall_arm_overlap, y.mixing), (FrictionCap::Total, ShearKinematics::FullRadii, 1.0, Mixing::Yade));
@@ -297,5 +297,47 @@ proptest! {
             let f = eval_any((true, false, true), &p, pi, &g, v, &mut h);
             prop_assert!(h.norm() <= mu * f.normal.abs() * (1.0 + 1e-12) + 1e-300);
         }
+    }
+}
+
+#[test]
+fn epsd2_rolling_spring_winds_up_by_kt_r2_w_dt_caps_at_mu_r_f_r_and_ignores_twist() {
+    let law = Hooke::Explicit(HookeExplicit { kn: 1000.0, kt: 800.0, gamma_n: 0.0, gamma_t: 0.0 });
+    let mut p = pm(1.0, 0.5);
+    p.rolling_friction = 0.1;
+    let (r, dt, d) = (0.002, 1e-6, 1e-5);
+    let o = ContactOptions { rolling: Some(RollingModel::Epsd2), ..opts(EndOfContact::Tensile, TANG) };
+    // two spheres of radius r (R* = r/2), i rolling about x and twisting about n = z
+    let pi = PairInertia::particles(r, r, 1e-4, 1e-4);
+    let g = along(Vec3::z(), d, r - d / 2.0, r - d / 2.0);
+    let m = Motion { v_i: Vec3::zeros(), w_i: Vec3::new(3.0, 0.0, 50.0), v_j: Vec3::zeros(), w_j: Vec3::zeros() };
+    let (mut h, mut roll) = (Vec3::zeros(), Vec3::zeros());
+    let kr = 800.0 * (r / 2.0) * (r / 2.0);
+    let c = law.contact(&o, &p, pi, &law.pair(&p, pi), &g, &m, &mut h, &mut roll, dt);
+    assert_relative_eq!(roll.x, kr * 3.0 * dt, max_relative = 1e-12);
+    assert_eq!((roll.y, roll.z), (0.0, 0.0), "the twist about n winds no rolling spring");
+    // the spring's torque is taken from i and given to j, beside r x F (the same without the law)
+    let off = ContactOptions { rolling: None, ..o };
+    let c0 = law.contact(&off, &p, pi, &law.pair(&p, pi), &g, &m, &mut Vec3::zeros(), &mut Vec3::zeros(), dt);
+    assert_relative_eq!(c.torque_i.x - c0.torque_i.x, -roll.x, max_relative = 1e-9);
+    assert_relative_eq!(c.torque_j.x - c0.torque_j.x, roll.x, max_relative = 1e-9);
+    // wound on, it stops at mu_r F_n R* = 0.1 * kn d * r/2
+    let cap = 0.1 * 1000.0 * d * (r / 2.0);
+    for _ in 0..100_000 {
+        law.contact(&o, &p, pi, &law.pair(&p, pi), &g, &m, &mut h, &mut roll, dt);
+    }
+    assert_relative_eq!(roll.norm(), cap, max_relative = 1e-12);
+    // spun back, it unloads elastically at once: by kr w dt from the cap
+    let back = Motion { w_i: Vec3::new(-3.0, 0.0, 0.0), ..m };
+    law.contact(&o, &p, pi, &law.pair(&p, pi), &g, &back, &mut h, &mut roll, dt);
+    assert_relative_eq!(roll.x, cap - kr * 3.0 * dt, max_relative = 1e-12);
+    // against a wall the arm is the particle's radius; LIGGGHTS's convention
+    // drives the spring by w (r - d/2) / (r - d)
+    for (scaled, factor) in [(false, 1.0), (true, (r - d / 2.0) / (r - d))] {
+        let o = ContactOptions { rolling_wall_spin_scaled: scaled, ..o };
+        let (pw, gw) = (PairInertia::wall(r, 1e-4), ContactGeom::sphere_wall(Vec3::z(), d, r - d / 2.0, r));
+        let mut roll = Vec3::zeros();
+        law.contact(&o, &p, pw, &law.pair(&p, pw), &gw, &m, &mut Vec3::zeros(), &mut roll, dt);
+        assert_relative_eq!(roll.x, 800.0 * r * r * 3.0 * factor * dt, max_relative = 1e-12);
     }
 }

@@ -437,9 +437,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         },
     };
     let settings = if opts.end == EndOfContact::Clip { format!("{settings} limitForce on").trim().to_string() } else { settings };
-    // rolling resistance: LIGGGHTS's own cdt model, the coefficient per type pair (mean, as talus mixes it)
+    // rolling resistance: LIGGGHTS's own cdt or epsd2 model, the coefficient per type pair (mean, as talus mixes it)
     let model = match case.contact.rolling {
         Some(crate::case::RollingModel::Cdt) => format!("{model} rolling_friction cdt"),
+        Some(crate::case::RollingModel::Epsd2) => format!("{model} rolling_friction epsd2"),
         None => model.to_string(),
     };
     let model = model.as_str();

@@ -74,7 +74,11 @@ fn check(case: &Case) -> Result<(), TalusError> {
         _ => {}
     }
     if c.rolling.is_some() {
-        return Err(refuse(case, "contact.rolling", "YADE 2023's Mindlin and ViscEl laws have no constant directional rolling torque (ViscEl's moment resistance grows with the spin)"));
+        let why = match c.rolling {
+            Some(crate::case::RollingModel::Epsd2) => "YADE 2023's Hertz-Mindlin law has no elastic-plastic rolling spring capped at mu_r F_n R (its rolling moment, Law2_ScGeom6D_CohFrictPhys_CohesionMoment, comes with a linear normal law)",
+            _ => "YADE 2023's Mindlin and ViscEl laws have no constant directional rolling torque (ViscEl's moment resistance grows with the spin)",
+        };
+        return Err(refuse(case, "contact.rolling", why));
     }
     for w in &case.walls {
         // YADE's axis-aligned `Wall` bodies (a plane normal to x, y or z; a 2D box) cannot turn

@@ -9,7 +9,7 @@
 use super::{bin, unbin, Parallel};
 use crate::dim::Vec3;
 use crate::integrate::GearState;
-use crate::neighbor::{History, NeighborList};
+use crate::neighbor::{Hist, History, NeighborList};
 use crate::order::StorageOrder;
 use crate::particles::{Particles, Record};
 use serde::{Deserialize, Serialize};
@@ -33,7 +33,7 @@ struct Router<'a> {
 
 impl Router<'_> {
     /// A pair entry whose particles go to `da` and `db` (None: not owned here).
-    fn pair(&mut self, e: ((u64, u64), Vec3), da: Option<usize>, db: Option<usize>) {
+    fn pair(&mut self, e: ((u64, u64), Hist), da: Option<usize>, db: Option<usize>) {
         if da == Some(self.me) || db == Some(self.me) {
             self.keep.pairs.push(e);
         }
@@ -46,7 +46,7 @@ impl Router<'_> {
     }
 
     /// A wall entry of a particle that goes to `d`.
-    fn wall(&mut self, e: ((u64, u16, u32), Vec3), d: usize) {
+    fn wall(&mut self, e: ((u64, u16, u32), Hist), d: usize) {
         if d == self.me {
             self.keep.walls.push(e);
         } else {
@@ -102,18 +102,17 @@ impl Parallel {
         let n = p.owned();
         let (dest, mut out) = self.destinations(p);
         let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
-        let zero = Vec3::zeros();
         for (k, &(a, b)) in nl.pairs.iter().enumerate() {
-            let h = nl.pair_hist[k];
-            if h != zero {
+            let h = nl.pair_entry(k);
+            if !h.is_zero() {
                 let (a, b) = (a as usize, b as usize);
                 route.pair(((p.id[a], p.id[b]), h), (a < n).then(|| dest[a]), (b < n).then(|| dest[b]));
             }
         }
         for i in 0..n.min(nl.wall_start.len().saturating_sub(1)) {
             for k in nl.wall_start[i] as usize..nl.wall_start[i + 1] as usize {
-                let h = nl.wall_hist[k];
-                if h != zero {
+                let h = nl.wall_entry(k);
+                if !h.is_zero() {
                     let (w, f) = nl.wall_feat[k];
                     route.wall(((p.id[i], w, f), h), dest[i]);
                 }

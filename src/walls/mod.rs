@@ -60,17 +60,21 @@ pub fn merge_coincident(feats: &[(u16, u32)], hits: &mut [Option<WallHit>], r: f
 /// Let a contact that moves from one triangle of a wall to another keep its
 /// tangential history: a new contact (zero history) takes over the history of a
 /// contact on the same wall that has just ended (non-zero history, no hit).
-pub fn carry_history(feats: &[(u16, u32)], hits: &[Option<WallHit>], hist: &mut [crate::dim::Vec3]) {
+pub fn carry_history(feats: &[(u16, u32)], hits: &[Option<WallHit>], hist: &mut [Vec3], roll: &mut [Vec3]) {
     let zero = Vec3::zeros();
+    // a rolling spring torque (where kept) goes along with the shear history
+    let kept = |hist: &[Vec3], roll: &[Vec3], k: usize| hist[k] != zero || roll.get(k).is_some_and(|r| *r != zero);
     for new in 0..hits.len() {
-        if hits[new].is_none() || hist[new] != zero {
+        if hits[new].is_none() || kept(hist, roll, new) {
             continue;
         }
-        if let Some(old) =
-            (0..hits.len()).find(|&o| o != new && hits[o].is_none() && hist[o] != zero && feats[o].0 == feats[new].0)
-        {
+        if let Some(old) = (0..hits.len()).find(|&o| o != new && hits[o].is_none() && kept(hist, roll, o) && feats[o].0 == feats[new].0) {
             hist[new] = hist[old];
             hist[old] = zero;
+            if !roll.is_empty() {
+                roll[new] = roll[old];
+                roll[old] = zero;
+            }
         }
     }
 }
