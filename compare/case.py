@@ -282,18 +282,41 @@ def pile_figures(x, r, case):
 
 def drag_figures(s, case):
     """The drag on a moving wall: the granules' force against its motion, averaged over the
-    rows whose displacement |v| t lies in the case's window (the drag paper's 1-5 mm)."""
+    rows whose displacement |v| (t - t0) lies in the case's window (the drag paper's 1-5 mm).
+    The wall moves from the start (its `velocity`, t0 = 0) or from the start of the first
+    phase whose `move` gives it a velocity (t0: that phase's first probe row). Where a servo
+    wall holds a pressure and the moving wall is a disc of diameter D_c, also the pressure
+    and the drag / (P D_c) of the drag paper's scaling (in 2D P is a line load, N/m: the
+    servo's `area` is the lid's length)."""
     a = case["analysis"]
     wall = next(w for w in case["wall"] if w["name"] == a["wall"])
-    v = np.array(wall["velocity"], float)
+    v = np.array(wall.get("velocity", [0.0, 0.0, 0.0]), float)
+    t0 = 0.0
+    if not v.any():
+        for p in case["phase"]:
+            m = next((m for m in p.get("move", []) if m["wall"] == a["wall"] and any(m.get("velocity", [0.0]))), None)
+            if m is not None:
+                v = np.array(m["velocity"], float)
+                rows = np.nonzero(np.asarray(s["phase"]) == p["name"])[0]
+                if rows.size == 0:
+                    raise EngineError(f"drag: no probe row in phase \"{p['name']}\", where {a['wall']} starts to move")
+                # the last row of the phase before (its end), or the first of this one
+                t0 = float(s["time_s"][rows[0] - 1] if rows[0] > 0 else s["time_s"][rows[0]])
+                break
     speed = np.linalg.norm(v)
     f = np.stack([s[f"{a['wall']}_force_{c}_n"] for c in "xyz"], axis=1)
     drag = -(f @ v) / speed
-    disp = speed * s["time_s"]
+    disp = speed * (s["time_s"] - t0)
     sel = (disp >= a["window"][0]) & (disp <= a["window"][1])
     if not sel.any():
         raise EngineError(f"drag: no probe row within displacements {a['window']} m")
-    return {"mean_drag_n": float(drag[sel].mean()), "peak_drag_n": float(drag.max())}
+    fig = {"mean_drag_n": float(drag[sel].mean()), "peak_drag_n": float(drag[disp >= 0].max())}
+    servo = next((w["servo"] for w in case["wall"] if "pressure" in w.get("servo", {})), None)
+    if servo is not None and "disc" in wall:
+        p = float(servo["pressure"])
+        fig["confining_pressure"] = p
+        fig["drag_per_p_dc"] = fig["mean_drag_n"] / (p * 2.0 * float(wall["disc"]["radius"]))
+    return fig
 
 
 def drum_figures(s, case, folder):

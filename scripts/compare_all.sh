@@ -48,6 +48,10 @@ echo "compare cases/drag-d1-bed1.toml (talus,yade, exported): within tolerance"
 python3 -m compare cases/shear-servo.toml --engines talus,yade --out "$out/case-shear-servo" > "$out-case-shear-servo.log" 2>&1 \
   || { cat "$out-case-shear-servo.log"; echo "compare cases/shear-servo.toml: FAILED"; exit 1; }
 echo "compare cases/shear-servo.toml (talus,yade, exported): within tolerance"
+# the drag bed under a servo lid's line load (YADE runs the same controller)
+python3 -m compare cases/drag-pressure.toml --engines talus,yade --out "$out/case-drag-pressure" > "$out-case-drag-pressure.log" 2>&1 \
+  || { cat "$out-case-drag-pressure.log"; echo "compare cases/drag-pressure.toml: FAILED"; exit 1; }
+echo "compare cases/drag-pressure.toml (talus,yade, exported): within tolerance"
 if [ "$full" = 1 ]; then
   python3 -m compare cases/drum.toml --engines talus,liggghts,yade --no-explain --out "$out/case-drum-3" > "$out-case-drum-3.log" 2>&1 \
     || { cat "$out-case-drum-3.log"; echo "compare cases/drum.toml (three engines): FAILED"; exit 1; }

@@ -108,7 +108,10 @@ impl Analysis {
             None => Analysis::None,
             Some(AnalysisSection::Drag { wall, window }) => {
                 let w = wall_index(wall, "wall")?;
-                if Vec3::from(case.walls[w].velocity) == Vec3::zeros() {
+                // it moves from the start, or from a phase's move on
+                let moved_by_phase =
+                    case.phases.iter().flat_map(|p| &p.moves).any(|m| m.wall == *wall && Vec3::from(m.velocity) != Vec3::zeros());
+                if Vec3::from(case.walls[w].velocity) == Vec3::zeros() && !moved_by_phase {
                     return Err(TalusError::Input(format!("{path}: analysis.wall = \"{wall}\": the wall does not move, so it feels no drag")));
                 }
                 if !(window[0] >= 0.0 && window[1] > window[0]) {
