@@ -79,9 +79,13 @@ def run_talus(case, convention, out, extra=()):
     return read_probes(out / "probes.csv"), json.loads((out / "summary.json").read_text())
 
 
-def run_reference(case, engine, out):
+def run_reference(case, engine, out, inserted=None):
+    """The reference engine on the exported case; a case that inserts particles brings in
+    those of `inserted` (the inserted.csv of talus's run in that engine's convention)."""
     out.mkdir(parents=True, exist_ok=True)
     cmd = [TALUS, "export", case, "--to", engine, "--out", out, *[a for kv in SETS for a in ("--set", kv)]]
+    if inserted is not None and Path(inserted).exists():
+        cmd += ["--inserted", inserted]
     what = " ".join(map(str, cmd))
     if not finished(out, what):
         (out / "finished").unlink(missing_ok=True)
@@ -497,7 +501,7 @@ def main(argv=None):
         for ref in refs:
             conv = CONVENTION[ref]
             ts, summary = run_talus(a.case, conv, out / f"talus-{conv}")
-            rs = run_reference(a.case, ref, out / ref)
+            rs = run_reference(a.case, ref, out / ref, out / f"talus-{conv}" / "inserted.csv")
             talus_series[f"talus[{conv}]"], ref_series[ref] = ts, rs
             ft, fr = figures_of(ts, case, summary, out / f"talus-{conv}"), figures_of(rs, case, summary, out / ref)
             kept[ref] = (ts, ft, rs, fr, summary)

@@ -413,6 +413,7 @@ impl PhaseSection {
             settle_extra: 0.0,
             remove_walls_at_end: Vec::new(),
             moves: Vec::new(),
+            inserts: Vec::new(),
         }
     }
 }

@@ -542,6 +542,56 @@ pub struct PhaseSection {
     /// Walls whose motion changes when the phase starts (`[[phase.move]]`).
     #[serde(default, rename = "move", skip_serializing_if = "Vec::is_empty")]
     pub moves: Vec<MoveSection>,
+    /// Particles poured in during the phase (`[[phase.insert]]`).
+    #[serde(default, rename = "insert", skip_serializing_if = "Vec::is_empty")]
+    pub inserts: Vec<InsertSection>,
+}
+
+/// `[[phase.insert]]`: particles poured into a region during the phase, as
+/// LIGGGHTS's `fix insert/rate/region` does: every `interval` seconds from the
+/// phase's start a batch brings the number (or mass) inserted up to
+/// `rate` (or `mass_rate`) times the time since the start, until `count` (or
+/// `mass`) are in. Each particle is placed at a seeded random point of the
+/// region, wholly inside it and overlapping neither a particle already there
+/// nor one of its batch; a batch that cannot be placed stops the run with an
+/// error. Radii uniform in `radius = { min, max }` or drawn from
+/// `radius = { values = [...], weights = [...] }` (weights by number).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct InsertSection {
+    pub material: String,
+    pub region: RegionSection,
+    /// How many particles in all (or `mass`, kg).
+    pub count: Option<u64>,
+    pub mass: Option<f64>,
+    /// Particles per second (or `mass_rate`, kg/s).
+    pub rate: Option<f64>,
+    pub mass_rate: Option<f64>,
+    pub radius: RadiusSection,
+    /// Initial velocity (m/s).
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Seconds between batches (default 0.01 s).
+    pub interval: Option<f64>,
+    pub seed: u64,
+}
+
+/// Where particles are inserted.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum RegionSection {
+    /// An axis-aligned box.
+    Box { lo: [f64; 3], hi: [f64; 3] },
+    /// A cylinder along z: centre (x, y) of its axis, radius, from z = lo to hi.
+    Cylinder { center: [f64; 2], radius: f64, lo: f64, hi: f64 },
+}
+
+/// Radii of inserted particles.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, untagged)]
+pub enum RadiusSection {
+    Uniform { min: f64, max: f64 },
+    Discrete { values: Vec<f64>, weights: Vec<f64> },
 }
 
 /// `[parallel]`: how the domain is cut among MPI ranks and kept balanced.
@@ -1011,8 +1061,9 @@ impl Case {
             return Err(self.err("particles.overlap_tolerance", ps.overlap_tolerance, "must be a fraction >= 0 of the radius"));
         }
         match &ps.source {
-            ParticleSource::List(l) if l.is_empty() => {
-                return Err(self.err("particles.list", "[]", "no particles; give at least one"));
+            // a run may start empty when a phase pours its particles in
+            ParticleSource::List(l) if l.is_empty() && !self.phases.iter().any(|p| !p.inserts.is_empty()) => {
+                return Err(self.err("particles.list", "[]", "no particles; give at least one (or insert them in a phase)"));
             }
             ParticleSource::Lattice(l) => self.validate_lattice(l)?,
             _ => {}
@@ -1246,7 +1297,88 @@ impl Case {
                 }
                 self.validate_motion(&at, &m.velocity, &m.rotation, &m.oscillation)?;
             }
+            for (k, ins) in ph.inserts.iter().enumerate() {
+                self.validate_insert(&format!("phase.{}.insert[{k}]", ph.name), ins)?;
+            }
         }
+        Ok(())
+    }
+
+    /// An insertion: a known material, a region inside the domain, one total
+    /// (count or mass) and its rate, radii that fit the region, a positive interval.
+    fn validate_insert(&self, at: &str, ins: &InsertSection) -> Result<(), TalusError> {
+        self.material_index(&ins.material, &format!("{at}.material"))?;
+        let pos = |key: &str, v: f64| -> Result<(), TalusError> {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(self.err(&format!("{at}.{key}"), v, "must be positive")) }
+        };
+        match (ins.count, ins.mass, ins.rate, ins.mass_rate) {
+            (Some(n), None, Some(r), None) => {
+                if n == 0 {
+                    return Err(self.err(&format!("{at}.count"), n, "must be at least 1"));
+                }
+                pos("rate", r)?;
+            }
+            (None, Some(m), None, Some(r)) => {
+                pos("mass", m)?;
+                pos("mass_rate", r)?;
+            }
+            _ => {
+                return Err(self.err(at, "", "give count and rate (particles, per second) or mass and mass_rate (kg, kg/s)"));
+            }
+        }
+        if let Some(i) = ins.interval {
+            pos("interval", i)?;
+        }
+        let (rmin, rmax) = match &ins.radius {
+            RadiusSection::Uniform { min, max } => {
+                pos("radius.min", *min)?;
+                if !(max.is_finite() && max >= min) {
+                    return Err(self.err(&format!("{at}.radius.max"), max, "must be at least radius.min"));
+                }
+                (*min, *max)
+            }
+            RadiusSection::Discrete { values, weights } => {
+                if values.is_empty() || values.len() != weights.len() {
+                    return Err(self.err(&format!("{at}.radius.weights"), format!("{weights:?}"), "needs one weight for each of radius.values"));
+                }
+                for &v in values {
+                    pos("radius.values", v)?;
+                }
+                if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) || weights.iter().sum::<f64>() <= 0.0 {
+                    return Err(self.err(&format!("{at}.radius.weights"), format!("{weights:?}"), "must be >= 0 and not all 0"));
+                }
+                (values.iter().cloned().fold(f64::INFINITY, f64::min), values.iter().cloned().fold(0.0, f64::max))
+            }
+        };
+        let v = ins.velocity;
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(self.err(&format!("{at}.velocity"), format!("{v:?}"), "must be finite"));
+        }
+        let (lo, hi) = match ins.region {
+            RegionSection::Box { lo, hi } => {
+                if (0..3).any(|k| !(lo[k].is_finite() && hi[k].is_finite() && hi[k] - lo[k] > 2.0 * rmax)) {
+                    return Err(self.err(&format!("{at}.region.box"), format!("lo {lo:?}, hi {hi:?}"), "must be wider than the largest particle along every axis"));
+                }
+                (lo, hi)
+            }
+            RegionSection::Cylinder { center, radius, lo, hi } => {
+                if !(radius.is_finite() && radius > rmax && hi - lo > 2.0 * rmax && center.iter().all(|c| c.is_finite())) {
+                    return Err(self.err(&format!("{at}.region.cylinder"), format!("center {center:?}, radius {radius}, lo {lo}, hi {hi}"), "must be wider and taller than the largest particle"));
+                }
+                ([center[0] - radius, center[1] - radius, lo], [center[0] + radius, center[1] + radius, hi])
+            }
+        };
+        let d = &self.simulation.domain;
+        if (0..3).any(|k| lo[k] < d.lo[k] || hi[k] > d.hi[k]) {
+            return Err(self.err(&format!("{at}.region"), format!("lo {lo:?}, hi {hi:?}"), "must lie inside the simulation domain"));
+        }
+        if self.simulation.dimension == crate::dim::Dimension::Two {
+            return Err(self.err(at, "", "insertion is 3D only (2D discs are placed by the drag bed generator)"));
+        }
+        if self.simulation.integrator != IntegratorKind::Verlet {
+            return Err(self.err("simulation.integrator", "\"gear\"", &format!("{at}: inserted particles need integrator = \"verlet\" (Gear's derivatives have no start for them)")));
+        }
+        let _ = rmin;
         Ok(())
     }
 

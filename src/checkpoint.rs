@@ -139,6 +139,7 @@ pub fn write(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
             contacts: st.contacts,
             clumps: st.clumps.clone(),
             analysis: st.analysis.clone(),
+            inserts: st.inserts.clone(),
         };
         let ck = Checkpoint { case_hash: case_hash(sim), ranks: sim.parallel().size(), state, history };
         encode(&ck).and_then(|bytes| {
@@ -172,8 +173,14 @@ pub fn read(sim: &mut Simulation, path: &Path) -> Result<(), TalusError> {
             sim.case().path.display()
         )));
     }
-    if ck.state.p.len() as u64 != sim.particle_count() {
-        return Err(TalusError::Input(format!("{}: particle count differs from the case", path.display())));
+    // the case's particles, and those its phases had inserted by then
+    let expected = sim.particle_count() + ck.state.inserts.inserted() - sim.state().inserts.inserted();
+    if ck.state.p.len() as u64 != expected {
+        return Err(TalusError::Input(format!(
+            "{}: particle count differs from the case ({} in the checkpoint, {expected} expected)",
+            path.display(),
+            ck.state.p.len()
+        )));
     }
     sim.restore(ck.state, ck.history);
     Ok(())

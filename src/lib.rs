@@ -16,6 +16,7 @@ pub mod export;
 pub mod fixed;
 pub mod forces;
 pub mod generate;
+pub mod insert;
 pub mod integrate;
 pub mod material;
 pub mod neighbor;

@@ -72,6 +72,10 @@ enum Cmd {
         /// Change one value of the case before exporting it, as `talus run --set`. Repeatable.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
+        /// A case that inserts particles: the inserted.csv of a talus run of it, whose
+        /// particles the export brings in at the same steps.
+        #[arg(long)]
+        inserted: Option<PathBuf>,
     },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
@@ -191,12 +195,12 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Cmd::Export { case, to, out, sets } => {
+        Cmd::Export { case, to, out, sets, inserted } => {
             let target = talus::export::Target::parse(&to)?;
             let c = Case::load_with(&case, &sets)?;
             let stem = case.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
             let out = out.unwrap_or_else(|| PathBuf::from("out").join("export").join(format!("{stem}-{to}")));
-            let e = talus::export::export(&c, target, &out)?;
+            let e = talus::export::export_with(&c, target, &out, inserted.as_deref())?;
             for f in &e.files {
                 println!("wrote {}", f.display());
             }

@@ -102,6 +102,52 @@ impl Observer for AnalysisLog {
     }
 }
 
+/// `inserted.csv`: every particle a `[[phase.insert]]` inserted, the step at
+/// whose start it came in, where, how fast, how big (what the exporters need
+/// to bring the same particles into LIGGGHTS or YADE at the same steps).
+pub struct InsertLog {
+    out: Option<crate::durable::Series>,
+}
+
+impl InsertLog {
+    pub const HEADER: &'static str = "step,time_s,id,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,radius_m,material";
+
+    /// Open it in `dir` (rank 0 writes; rows after `resume_step` dropped).
+    pub fn create(dir: &Path, sim: &Simulation, resume_step: Option<u64>) -> Result<InsertLog, TalusError> {
+        let out = if sim.parallel().comm.is_root() {
+            Some(crate::durable::Series::open(&dir.join("inserted.csv"), Self::HEADER, 0, resume_step.map(|s| s.saturating_sub(1)))?)
+        } else {
+            None
+        };
+        Ok(InsertLog { out })
+    }
+}
+
+impl Observer for InsertLog {
+    fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
+        let rows = sim.take_inserted();
+        if let Some(out) = self.out.as_mut() {
+            for r in &rows {
+                let p = &r.init;
+                out.row(&format!(
+                    "{},{:.17e},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{}",
+                    r.step, r.time, p.id, p.pos.x, p.pos.y, p.pos.z, p.vel.x, p.vel.y, p.vel.z, p.radius, r.material
+                ))?;
+            }
+            if !rows.is_empty() {
+                out.flush()?;
+            }
+        }
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<(), TalusError> {
+        match self.out.as_mut() {
+            Some(o) => o.flush(),
+            None => Ok(()),
+        }
+    }
+}
+
 /// `probes.csv` every `output.interval`.
 pub struct ProbeLog {
     probes: Probes,

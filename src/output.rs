@@ -22,6 +22,11 @@ pub struct Probes {
     track: Vec<u64>,
 }
 
+/// Whether a phase of the run inserts particles.
+fn inserting(sim: &Simulation) -> bool {
+    sim.case().phases.iter().any(|p| !p.inserts.is_empty())
+}
+
 impl Probes {
     /// Open `probes.csv` in `dir`: anew, or, with `resume_step` (a restart),
     /// keeping the rows up to that step and appending after them.
@@ -38,6 +43,10 @@ impl Probes {
             return Ok(Probes { out: None, mass_below_z: o.mass_below_z, track });
         }
         let mut h = String::from("time_s,step,phase,kinetic_energy_j,contacts");
+        // a run that inserts particles reports how many it holds
+        if inserting(sim) {
+            h.push_str(",particles");
+        }
         for w in sim.walls() {
             for c in ["x", "y", "z"] {
                 h.push_str(&format!(",{}_force_{c}_n", w.name));
@@ -74,9 +83,13 @@ impl Probes {
         let ke = sim.kinetic_energy();
         let contacts = sim.contacts();
         let mb = self.mass_below_z.map(|z| sim.mass_below(z));
+        let count = inserting(sim).then(|| sim.particle_count());
         let tracked = if self.track.is_empty() { Vec::new() } else { sim.tracked(&self.track) };
         let Some(out) = self.out.as_mut() else { return Ok(mb) };
         let mut line = format!("{:.9e},{},{},{:.9e},{}", st.time, st.step, phase, ke, contacts);
+        if let Some(n) = count {
+            line.push_str(&format!(",{n}"));
+        }
         for w in &st.walls {
             for v in [w.force, w.torque] {
                 for k in 0..3 {

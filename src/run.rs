@@ -74,6 +74,10 @@ fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Re
     }
     obs.push(Box::new(probes));
     obs.push(Box::new(ranks));
+    if sim.case().phases.iter().any(|p| !p.inserts.is_empty()) {
+        let log = crate::observe::InsertLog::create(out, sim, resume);
+        obs.push(Box::new(sim.parallel().collective(log)?));
+    }
     if let Some(iv) = sim.case().output.snapshot_interval {
         let d = &sim.case().simulation.domain;
         let domain = (crate::dim::Vec3::from(d.lo), crate::dim::Vec3::from(d.hi));

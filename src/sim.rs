@@ -69,6 +69,9 @@ pub struct State {
     /// Rigid clumps (dumbbells), serial 2D runs.
     #[serde(default)]
     pub clumps: Clumps,
+    /// What each `[[phase.insert]]` has inserted, and the next free id.
+    #[serde(default)]
+    pub inserts: crate::insert::Insertions,
 }
 
 pub struct Simulation {
@@ -84,6 +87,10 @@ pub struct Simulation {
     next_reorder: u64,
     /// This rank's threads (the force sweep runs on them).
     pool: std::sync::Arc<rayon::ThreadPool>,
+    /// A batch of inserted particles waits for the next list rebuild.
+    insert_pending: bool,
+    /// The particles inserted since the run's observers last took them.
+    inserted_log: Vec<crate::insert::Inserted>,
 }
 
 /// Rayleigh time of a sphere: pi R sqrt(rho / G) / (0.1631 nu + 0.8766).
@@ -106,6 +113,8 @@ impl Simulation {
         let opts = crate::contact::conventions::resolve(&case.contact);
         let table = PairTable::new(&case.materials, opts.mixing);
         let mut p = build_particles(&case, &comm)?;
+        // every rank holds every particle here: inserted ones follow the largest id
+        let inserts = crate::insert::Insertions::new(&case, p.id.iter().copied().max().unwrap_or(0) + 1);
         let (dt, tr, rmin) = time_step(&case, &p)?;
         let mut walls = build_walls(&case)?;
         apply_moves(&mut walls, &case, 0, 0.0);
@@ -154,6 +163,7 @@ impl Simulation {
             contacts: 0,
             analysis,
             clumps,
+            inserts,
         };
         let pool = std::sync::Arc::new(thread_pool(&case, &par)?);
         let mut set = set;
@@ -162,7 +172,7 @@ impl Simulation {
             set.sweep.grain = crate::forces::MIN_LEN;
             par.pool = Some(pool.clone());
         }
-        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool })
+        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool, insert_pending: false, inserted_log: Vec::new() })
     }
 
     /// Threads this rank computes forces on.
@@ -401,6 +411,58 @@ impl Simulation {
 
     /// Check the particles and, if any rank needs it, rebuild the lists
     /// (migrating particles and remaking ghosts); else refresh the ghosts.
+    /// The particles inserted since the last call (the same on every rank).
+    pub fn take_inserted(&mut self) -> Vec<crate::insert::Inserted> {
+        std::mem::take(&mut self.inserted_log)
+    }
+
+    /// Place the batches of the current phase's insertions that are due (the
+    /// same on every rank: see `insert`); each rank keeps those its box owns,
+    /// which join at the list rebuild this asks for.
+    fn insert_batches(&mut self, mid_step: bool) -> Result<(), TalusError> {
+        let Some(ph) = self.case.phases.get(self.state.phase) else { return Ok(()) };
+        if ph.inserts.is_empty() {
+            return Ok(());
+        }
+        let st = &mut self.state;
+        let elapsed = st.time - st.phase_start;
+        let dt = self.set.dt;
+        for (k, ins) in ph.inserts.iter().enumerate() {
+            loop {
+                let pr = &st.inserts.progress[st.phase][k];
+                if pr.done || crate::insert::batch_time(ins, pr.batches) > elapsed + 0.5 * dt {
+                    break;
+                }
+                // every particle that may reach into the region, from every rank
+                let (lo, hi) = crate::insert::region_box(&ins.region);
+                let reach = crate::insert::max_radius(&ins.radius) + st.p.radius[..st.p.owned()].iter().cloned().fold(0.0, f64::max);
+                let mine: Vec<(Vec3, f64)> = (0..st.p.owned())
+                    .filter(|&i| {
+                        let x = st.p.pos[i];
+                        (0..3).all(|a| x[a] >= lo[a] - reach && x[a] <= hi[a] + reach)
+                    })
+                    .map(|i| (st.p.pos[i], st.p.radius[i]))
+                    .collect();
+                let existing = crate::parallel::all_gather(&self.par.comm, &mine);
+                let at = format!("{}: phase.{}.insert[{k}]", self.case.path.display(), ph.name);
+                let pr = &mut st.inserts.progress[st.phase][k];
+                let placed = crate::insert::place_batch(&self.case, &at, ins, pr, &mut st.inserts.next_id, &existing)?;
+                if placed.is_empty() {
+                    continue;
+                }
+                let m = self.case.material_index(&ins.material, "insert.material")?;
+                let density = self.case.materials[m as usize].density;
+                let me = self.par.rank();
+                let recs = crate::insert::records(&placed, density, m, self.set.sweep.gravity, dt, mid_step);
+                let (step, time) = (st.step, st.time);
+                self.inserted_log.extend(placed.iter().map(|p| crate::insert::Inserted { step, time, init: p.clone(), material: m }));
+                self.par.inserted.extend(recs.into_iter().filter(|r| self.par.dec.owner(&r.pos) == me));
+                self.insert_pending = true;
+            }
+        }
+        Ok(())
+    }
+
     fn refresh_lists(&mut self) -> Result<(), TalusError> {
         let st = &mut self.state;
         let t = Instant::now();
@@ -408,6 +470,8 @@ impl Simulation {
             Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
             Err(e) => (true, Some(e.to_string())),
         };
+        // a batch of inserted particles joins at a rebuild (every rank knows of it)
+        let need = need || std::mem::replace(&mut self.insert_pending, false);
         let (need, err) = self.par.agree(need || self.par.rebalance_pending, err);
         self.par.timers.check += t.elapsed().as_secs_f64();
         if let Some(e) = err {
@@ -537,6 +601,8 @@ impl Simulation {
     /// Forces at the current state, once before the first step.
     pub fn prepare(&mut self) -> Result<(), TalusError> {
         if !self.state.forces_ready {
+            // particles inserted at the start of the first step are there from its start
+            self.insert_batches(false)?;
             self.refresh_lists()?;
             self.forces();
             self.reduce_walls();
@@ -578,6 +644,7 @@ impl Simulation {
             }
         }
         self.state.nl.wall_moved += moved;
+        self.insert_batches(true)?;
         self.refresh_lists()?;
         let t1 = Instant::now();
         self.forces();
@@ -931,8 +998,18 @@ fn make_ellipses(case: &Case, comm: &Comm, p: &mut Particles) -> Result<(), Talu
 /// contact in fewer than 20 steps, is refused unless forced.
 fn time_step(case: &Case, p: &Particles) -> Result<(f64, f64, f64), TalusError> {
     let mat = &case.materials[case.material_index(&case.particles.material, "particles.material")? as usize];
-    let rmin = p.minor.iter().cloned().fold(f64::INFINITY, f64::min);
-    let tr = rayleigh_time(rmin, mat.density, mat.shear_modulus(), mat.poisson_ratio);
+    let mut rmin = p.minor.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mut tr = if rmin.is_finite() { rayleigh_time(rmin, mat.density, mat.shear_modulus(), mat.poisson_ratio) } else { f64::INFINITY };
+    // the smallest particle a phase will insert counts too
+    for ins in case.phases.iter().flat_map(|ph| &ph.inserts) {
+        let m = &case.materials[case.material_index(&ins.material, "insert.material")? as usize];
+        let r = match &ins.radius {
+            crate::case::RadiusSection::Uniform { min, .. } => *min,
+            crate::case::RadiusSection::Discrete { values, .. } => values.iter().cloned().fold(f64::INFINITY, f64::min),
+        };
+        rmin = rmin.min(r);
+        tr = tr.min(rayleigh_time(r, m.density, m.shear_modulus(), m.poisson_ratio));
+    }
     let s = &case.simulation;
     let dt = match s.timestep {
         TimeStep::Seconds(dt) => dt,
@@ -1011,7 +1088,13 @@ fn build_parallel(case: &Case, comm: Rc<Comm>, p: &Particles, domain: &Domain, s
     }
     let mut dec = Decomposition::new(grid, domain.lo, domain.hi);
     dec.fit(&Comm::Serial, &p.pos, &vec![1.0; p.len()]);
-    let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
+    // the largest particle of the run, inserted ones included: it sets how far ghosts reach
+    let rmax = case
+        .phases
+        .iter()
+        .flat_map(|ph| &ph.inserts)
+        .map(|ins| crate::insert::max_radius(&ins.radius))
+        .fold(p.radius.iter().cloned().fold(0.0, f64::max), f64::max);
     let pc = &case.parallel;
     let balance = BalanceSettings { mode: pc.balance, tolerance: pc.imbalance_percent / 100.0, interval: pc.balance_interval };
     let mut par = Parallel::new(comm, dec, 2.0 * rmax + skin, balance);

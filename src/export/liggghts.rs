@@ -252,7 +252,7 @@ fn plane_mesh(point: Vec3, n: Vec3, lo: Vec3, hi: Vec3) -> Mesh {
     Mesh::new(nodes, tris).expect("a grid of squares is a valid mesh")
 }
 
-pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
+pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Result<Exported, TalusError> {
     check(case)?;
     let sim = Simulation::new(case.clone())?;
     let dt = sim.dt();
@@ -290,6 +290,49 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
             balls.push((i, max_id + 1 + balls.len() as u64, dc.center, dc.radius, atom_type, Vec3::from(case.walls[i].velocity)));
         }
     }
+    // inserted particles come in by create_atoms, which numbers them on from the
+    // largest id: talus numbers them so too, with no gap
+    if !inserted.is_empty() {
+        if let Some(&(i, ..)) = balls.first() {
+            return Err(refuse(case, &format!("wall.{}.disc", case.walls[i].name), "a ball wall is an atom whose id the inserted particles would take in LIGGGHTS"));
+        }
+        let mut ids: Vec<u64> = inserted.iter().map(|r| r.id + shift).collect();
+        ids.sort_unstable();
+        if ids.iter().enumerate().any(|(k, &id)| id != max_id + 1 + k as u64) {
+            return Err(refuse(case, "--inserted", "the inserted particles' ids do not follow the case's on from its largest without a gap"));
+        }
+    }
+    // the inserted particles by the step at whose start they came in
+    let mut batches: Vec<(u64, Vec<&super::InsertedRow>)> = Vec::new();
+    for r in inserted {
+        match batches.last_mut() {
+            Some((s, v)) if *s == r.step => v.push(r),
+            _ => batches.push((r.step, vec![r])),
+        }
+    }
+    batches.sort_by_key(|b| b.0);
+    for (_, b) in batches.iter_mut() {
+        b.sort_by_key(|r| r.id);
+    }
+    let create = |w: &mut String, step: u64, rows: &[&super::InsertedRow]| {
+        let _ = writeln!(w, "# {} particles inserted by talus at the start of step {step} (its inserted.csv)", rows.len());
+        for r in rows {
+            let rho = case.materials[r.material as usize].density;
+            let _ = writeln!(w, "create_atoms    {} single {} {} {} units box", r.material + 1, g(r.pos[0]), g(r.pos[1]), g(r.pos[2]));
+            let _ = writeln!(
+                w,
+                "set             atom {} diameter {} density {} vx {} vy {} vz {}",
+                r.id + shift,
+                g(2.0 * r.radius),
+                g(rho),
+                g(r.vel[0]),
+                g(r.vel[1]),
+                g(r.vel[2])
+            );
+        }
+        let (a, b) = (rows.first().map_or(0, |r| r.id + shift), rows.last().map_or(0, |r| r.id + shift));
+        let _ = writeln!(w, "group           grains id {a}:{b}");
+    };
     const BALL_DENSITY: f64 = 1e15;
     let mut data = String::new();
     let _ = writeln!(data, "LIGGGHTS data file: the initial particles of {} (exported by talus)\n", case.path.display());
@@ -467,7 +510,21 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     if case.materials.iter().any(|m| m.youngs_modulus > 1e9) {
         let _ = writeln!(w, "hard_particles  yes                      # stiffer materials than LIGGGHTS's ceiling (1e9 Pa) are allowed");
     }
-    let _ = writeln!(w, "read_data       particles.data");
+    if idx.is_empty() && balls.is_empty() {
+        // no particles at the start (they are all inserted): LIGGGHTS reads no empty data file
+        let _ = writeln!(
+            w,
+            "region          simbox block {} {} {} {} {} {} units box\ncreate_box      {nmat} simbox",
+            g(d.lo[0]),
+            g(d.hi[0]),
+            g(d.lo[1]),
+            g(d.hi[1]),
+            g(d.lo[2]),
+            g(d.hi[2])
+        );
+    } else {
+        let _ = writeln!(w, "read_data       particles.data");
+    }
     let _ = writeln!(w, "neighbor        {} bin\nneigh_modify    delay 0 every 1 check yes", g(skin));
     // the particles (not the ball walls): integrated, under gravity, in the energies
     let _ = writeln!(w, "group           grains id <= {max_id}");
@@ -676,6 +733,13 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let mut header = String::from("time_s,step,phase,kinetic_energy_j,contacts");
     let mut row = String::from("${t},${st},${phase},${ke},${contacts}");
     let mut thermo = String::from("step v_t v_ke v_pe v_contacts");
+    // a case that inserts particles reports how many are in, as talus does
+    if case.phases.iter().any(|p| !p.inserts.is_empty()) {
+        let _ = writeln!(w, "variable np equal count(grains)");
+        header.push_str(",particles");
+        row.push_str(",${np}");
+        thermo.push_str(" v_np");
+    }
     for x in &walls {
         for c in ["x", "y", "z"] {
             let _ = write!(header, ",{}_force_{c}_n", x.name);
@@ -721,6 +785,11 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let first = case.phases.first().map(|p| p.name.as_str()).unwrap_or("end");
     let _ = writeln!(w, "variable phase string {first}");
     let _ = writeln!(w, "thermo_style    custom {thermo}\nthermo          {every}\nthermo_modify   lost error norm no");
+    // particles inserted at the start of step 0 are there before the first run
+    while batches.first().is_some_and(|b| b.0 == 0) {
+        let (st, rows) = batches.remove(0);
+        create(w, st, &rows);
+    }
     let _ = writeln!(w, "\n# step 0: forces at the start (run 0 moves nothing), the first row, the reference PE");
     let _ = writeln!(w, "fix probe all print {every} \"{row}\" append probes.csv screen no title none");
     let _ = writeln!(w, "run             0 post no");
@@ -803,16 +872,24 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 let n = phase_steps(start, ph.duration, dt);
                 let end = start + n;
                 let mut at = start;
-                while let Some(&(rs, i)) = timed.first() {
-                    if rs > end || rs < at {
-                        break;
+                loop {
+                    // the next wall removed at a time, or batch of inserted particles, in this phase
+                    let rs = timed.first().map(|x| x.0).filter(|&rs| rs <= end && rs >= at);
+                    let bs = batches.first().map(|x| x.0).filter(|&bs| bs < end && bs >= at);
+                    let Some(next) = rs.into_iter().chain(bs).min() else { break };
+                    if next > at {
+                        let _ = writeln!(w, "run             {} pre ${{pre}} post no\nvariable pre string no", next - at);
+                        at = next;
                     }
-                    if rs > at {
-                        let _ = writeln!(w, "run             {} pre ${{pre}} post no\nvariable pre string no", rs - at);
-                        at = rs;
+                    if rs == Some(next) {
+                        let i = timed.remove(0).1;
+                        remove(w, &mut live, &mut moving, i, &format!("remove_at = {} s", case.walls[i].remove_at.unwrap_or(0.0)));
+                    } else {
+                        let (st, rows) = batches.remove(0);
+                        create(w, st, &rows);
+                        // new atoms: the run sets up again
+                        let _ = writeln!(w, "variable pre string yes");
                     }
-                    remove(w, &mut live, &mut moving, i, &format!("remove_at = {} s", case.walls[i].remove_at.unwrap_or(0.0)));
-                    timed.remove(0);
                 }
                 if end > at {
                     let _ = writeln!(w, "run             {} pre ${{pre}} post no\nvariable pre string no", end - at);
@@ -820,6 +897,9 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 s0 = Some(end);
             }
             (None, None) => {
+                if !batches.is_empty() {
+                    return Err(refuse(case, &format!("phase.{}.insert", ph.name), "particles inserted after a phase that ends on kinetic energy: the step is not known when the deck is written"));
+                }
                 if timed.iter().any(|_| true) {
                     return Err(refuse(case, "wall.remove_at", "a wall removed at a time after a phase that ends on kinetic energy: the step is not known when the deck is written"));
                 }
@@ -827,6 +907,9 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
                 let _ = writeln!(w, "run             {n} pre ${{pre}} post no\nvariable pre string no");
             }
             (Some(frac), _) => {
+                if !batches.is_empty() {
+                    return Err(refuse(case, &format!("phase.{}.insert", ph.name), "particles inserted during or after a phase that ends on kinetic energy: the step is not known when the deck is written"));
+                }
                 if timed.iter().any(|&(rs, _)| s0.is_none_or(|a| rs >= a)) {
                     return Err(refuse(case, &format!("phase[{k}].kinetic_energy_fraction"), "a wall removed at a time during or after a phase that ends on kinetic energy: the step is not known when the deck is written"));
                 }

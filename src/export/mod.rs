@@ -44,11 +44,74 @@ pub struct Exported {
 
 /// Export `case` for `target` into `out` (created).
 pub fn export(case: &Case, target: Target, out: &Path) -> Result<Exported, TalusError> {
+    export_with(case, target, out, None)
+}
+
+/// Export `case`, a case that inserts particles with `inserted`, the
+/// `inserted.csv` of a talus run of it (where the inserted particles go
+/// depends on the run: the reference gets the very particles talus inserted,
+/// at the same steps).
+pub fn export_with(case: &Case, target: Target, out: &Path, inserted: Option<&Path>) -> Result<Exported, TalusError> {
+    let rows = inserted_rows(case, inserted)?;
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     match target {
-        Target::Liggghts => liggghts::export(case, out),
-        Target::Yade => yade::export(case, out),
+        Target::Liggghts => liggghts::export(case, out, &rows),
+        Target::Yade => {
+            if let Some(ph) = case.phases.iter().find(|p| !p.inserts.is_empty()) {
+                return Err(refuse(case, &format!("phase.{}.insert", ph.name), "inserting particles is not exported to YADE yet (LIGGGHTS: talus export --inserted)"));
+            }
+            yade::export(case, out)
+        }
     }
+}
+
+/// One particle a talus run inserted (a row of its `inserted.csv`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InsertedRow {
+    /// It came in at the start of this step (after this many steps).
+    pub step: u64,
+    pub id: u64,
+    pub pos: [f64; 3],
+    pub vel: [f64; 3],
+    pub radius: f64,
+    pub material: u16,
+}
+
+/// The particles a run of `case` inserted, from its `inserted.csv`; none for a
+/// case without insertions. A case with insertions needs the file.
+pub fn inserted_rows(case: &Case, path: Option<&Path>) -> Result<Vec<InsertedRow>, TalusError> {
+    let Some(ph) = case.phases.iter().find(|p| !p.inserts.is_empty()) else { return Ok(Vec::new()) };
+    let Some(path) = path else {
+        return Err(refuse(
+            case,
+            &format!("phase.{}.insert", ph.name),
+            "where inserted particles go depends on the run: export with --inserted OUT/inserted.csv from `talus run` of this case (python -m compare does)",
+        ));
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| TalusError::io(format!("cannot read {}", path.display()), e))?;
+    let mut rows = Vec::new();
+    for (n, line) in text.lines().enumerate().skip(1) {
+        let bad = |why: &str| TalusError::Input(format!("{}: line {}: {why}: {line}", path.display(), n + 1));
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 11 {
+            return Err(bad("expected 11 columns (step,time_s,id,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,radius_m,material)"));
+        }
+        let num = |k: usize| f[k].trim().parse::<f64>().map_err(|_| bad(&format!("column {} is not a number", k + 1)));
+        let int = |k: usize| f[k].trim().parse::<u64>().map_err(|_| bad(&format!("column {} is not a whole number", k + 1)));
+        let material = int(10)?;
+        if material as usize >= case.materials.len() {
+            return Err(bad("no material of that index in the case"));
+        }
+        rows.push(InsertedRow {
+            step: int(0)?,
+            id: int(2)?,
+            pos: [num(3)?, num(4)?, num(5)?],
+            vel: [num(6)?, num(7)?, num(8)?],
+            radius: num(9)?,
+            material: material as u16,
+        });
+    }
+    Ok(rows)
 }
 
 /// A wall's motion from the start of a phase on, as the case gives it.

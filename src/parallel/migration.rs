@@ -174,7 +174,8 @@ impl Parallel {
         let msgs: Vec<Vec<u8>> =
             out.iter().enumerate().map(|(r, m)| if r == me || m.recs.is_empty() { Vec::new() } else { bin(m) }).collect();
         let got = self.comm.exchange_bytes(&msgs);
-        let mut arrived: Vec<(Record, Vec<Vec3>)> = Vec::new();
+        // inserted particles arrive from nowhere, without Gear rows or history
+        let mut arrived: Vec<(Record, Vec<Vec3>)> = std::mem::take(&mut self.inserted).into_iter().map(|r| (r, Vec::new())).collect();
         let mut add = History::default();
         for (r, m) in got.iter().enumerate() {
             if r == me || m.is_empty() {

@@ -94,6 +94,14 @@ pub struct Parallel {
     /// The rank's threads, where it has more than one: migration sorts the
     /// kept contact history on them.
     pub pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+    /// Particles inserted on this rank (those its box owns), joining the owned
+    /// ones at the next migration as arrivals do.
+    pub inserted: Vec<crate::particles::Record>,
+}
+
+/// Every rank's items, in rank order, on every rank.
+pub fn all_gather<T: Serialize + for<'a> Deserialize<'a>>(comm: &Comm, mine: &Vec<T>) -> Vec<T> {
+    comm.all_gather_bytes(&bin(mine)).iter().flat_map(|b| unbin::<Vec<T>>(b)).collect()
 }
 
 fn bin<T: Serialize>(x: &T) -> Vec<u8> {
@@ -124,6 +132,7 @@ impl Parallel {
             reorders: 0,
             pool: None,
             reorder_now: true,
+            inserted: Vec::new(),
         }
     }
 
