@@ -182,3 +182,45 @@ def test_a_servo_wall_is_written_for_yade_and_refused_for_liggghts(tmp_path):
     assert r.returncode == 0, r.stderr
     script = (tmp_path / "y" / "talus.py").read_text()
     assert "lid_travel_m" in script and '"target": 10.0' in script
+
+
+def test_inserted_particles_are_exported_from_a_talus_run_and_refused_without_one(tmp_path):
+    case = ROOT / "cases" / "pour.toml"
+    short = ["--set", "phase[0].insert[0].count=120", "--set", "phase[0].duration=0.03", "--set", "phase[1].duration=0.001"]
+    # without a run's inserted.csv: refused, naming the insertion and what to give
+    r = subprocess.run([str(engines.TALUS), "export", str(case), "--to", "liggghts", "--out", str(tmp_path / "x"), *short],
+                       capture_output=True, text=True)
+    assert r.returncode != 0 and "phase.pour.insert" in r.stderr and "--inserted" in r.stderr, r.stderr
+    # YADE: refused (not written yet)
+    run = tmp_path / "run"
+    # (in LIGGGHTS's convention: a few spheres of two batches meet as they fall)
+    subprocess.run([str(engines.TALUS), "run", str(case), "--out", str(run), "--quiet", *short, "--set", "contact.convention=liggghts"],
+                   check=True, capture_output=True)
+    rows = list(csv.DictReader(open(run / "inserted.csv")))
+    assert [int(x["step"]) for x in rows[::50]] == [0, 131, 261] and len(rows) == 120
+    r = subprocess.run([str(engines.TALUS), "export", str(case), "--to", "yade", "--out", str(tmp_path / "y"), "--inserted", str(run / "inserted.csv"), *short],
+                       capture_output=True, text=True)
+    assert r.returncode != 0 and "phase.pour.insert" in r.stderr, r.stderr
+    # LIGGGHTS: each particle created at the start of its step, where and as talus inserted it
+    out = tmp_path / "l"
+    subprocess.run([str(engines.TALUS), "export", str(case), "--to", "liggghts", "--out", str(out), "--inserted", str(run / "inserted.csv"), *short],
+                   check=True, capture_output=True)
+    deck = (out / "in.talus").read_text()
+    assert deck.count("create_atoms") == 120 and "create_box" in deck
+    x = float(deck.split("create_atoms    1 single ")[1].split()[0])
+    assert x == float(rows[0]["x_m"])
+    subprocess.run(["liggghts", "-in", "in.talus", "-log", "log.liggghts"], cwd=out, check=True, capture_output=True)
+    lig = probes(out / "probes.csv")
+    tal = probes(run / "probes.csv")
+    # the same count at the same steps; the same fall to 1e-9
+    common = np.intersect1d(lig["step"], tal["step"])
+    assert len(common) >= 2
+    for k in common:
+        i, j = np.nonzero(lig["step"] == k)[0][0], np.nonzero(tal["step"] == k)[0][0]
+        assert lig["particles"][i] == tal["particles"][j]
+        assert abs(lig["kinetic_energy_j"][i] - tal["kinetic_energy_j"][j]) <= 1e-9 * max(tal["kinetic_energy_j"].max(), 1e-30)
+    # every particle at the end, in id order (LIGGGHTS's dump holds 6 digits)
+    from compare.case import read_final
+    (xl, rl), (xt, rt) = read_final(out), read_final(run)
+    assert xl.shape == xt.shape == (120, 3)
+    assert np.allclose(xl, xt, rtol=2e-6, atol=1e-7) and np.allclose(rl, rt, rtol=1e-5)
