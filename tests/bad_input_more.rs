@@ -167,7 +167,7 @@ fn particle_csv_with_part_of_a_vector_or_a_repeated_column_is_refused() {
 
 #[test]
 fn empty_particle_sets_are_refused() {
-    expect("SC-wall.toml", &[(SPHERE, "list = []")], "particles.list = []: no particles; give at least one");
+    expect("SC-wall.toml", &[(SPHERE, "list = []")], "particles.list = []: no particles; give at least one (or insert them in a phase)");
     expect("H1-small.toml", &[("count = 5000", "count = 0")], "particles.lattice.count = 0: no particles; give at least one");
     assert_eq!(with_csv("id,x,y,z,radius\n"), "talus: error: DIR/cloud.csv: no particles in the file\n");
 }

@@ -56,12 +56,7 @@ pub fn export_with(case: &Case, target: Target, out: &Path, inserted: Option<&Pa
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     match target {
         Target::Liggghts => liggghts::export(case, out, &rows),
-        Target::Yade => {
-            if let Some(ph) = case.phases.iter().find(|p| !p.inserts.is_empty()) {
-                return Err(refuse(case, &format!("phase.{}.insert", ph.name), "inserting particles is not exported to YADE yet (LIGGGHTS: talus export --inserted)"));
-            }
-            yade::export(case, out)
-        }
+        Target::Yade => yade::export(case, out, &rows),
     }
 }
 

@@ -136,7 +136,7 @@ fn combine(a: f64, b: f64) -> f64 {
     }
 }
 
-pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
+pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Result<Exported, TalusError> {
     check(case)?;
     let sim = Simulation::new(case.clone())?;
     let dt = sim.dt();
@@ -310,6 +310,8 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     // materials: talus's in order (particles), then one copy per wall
     let part_mats: Vec<usize> = {
         let mut m: Vec<usize> = idx.iter().map(|&i| p.material[i] as usize).collect();
+        // and those of the particles inserted later
+        m.extend(inserted.iter().map(|r| r.material as usize));
         m.sort_unstable();
         m.dedup();
         m
@@ -405,6 +407,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
 
     // probes: the header of Probes::create (a turning wall's axis torque after its other columns)
     let mut header = String::from("time_s,step,phase,kinetic_energy_j,contacts");
+    let inserting = case.phases.iter().any(|p| !p.inserts.is_empty());
+    if inserting {
+        header.push_str(",particles");
+    }
     for (ws, w) in case.walls.iter().zip(sim.walls()) {
         for c in ["x", "y", "z"] {
             let _ = write!(header, ",{}_force_{c}_n", ws.name);
@@ -460,6 +466,9 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         "track": case.output.track,
         "final_state": case.output.final_state,
         "header": header,
+        "particles_column": inserting,
+        // the particles a talus run inserted: [step, id, x, y, z, vx, vy, vz, radius, material index, density]
+        "inserted": inserted.iter().map(|r| json!([r.step, r.id, r.pos[0], r.pos[1], r.pos[2], r.vel[0], r.vel[1], r.vel[2], r.radius, r.material, case.materials[r.material as usize].density])).collect::<Vec<_>>(),
     });
 
     let mut s = String::new();

@@ -97,6 +97,34 @@ for c in C["clumps"]:
 radius_of = {bid[t]: info[t][2] for t in info}
 mass_inertia = {bid[t]: info[t][:2] for t in info}   # a member's own, as talus counts them
 
+# ---- particles a talus run inserted (its inserted.csv): each comes in at the start
+# of its step s, before iteration s, at v(s-1/2) = v_0 - dt/2 g (no contact where it is
+# put); those of step 0 before the first iteration, at v_0 (the start adjusts them)
+inserted = list(C["inserted"])
+born = {}          # body id -> the step it came in at
+
+
+def insert_batch(s):
+    while inserted and inserted[0][0] == s:
+        st, t, x, y, z, vx, vy, vz, r, mi, rho = inserted.pop(0)
+        m = rho * 4.0 / 3.0 * math.pi * (r * r * r)
+        inertia = 0.4 * m * r * r
+        b = utils.sphere((x, y, z), r, material=mats[mi])
+        b.state.mass = m
+        b.state.inertia = Vector3(inertia, inertia, inertia)
+        v = Vector3(vx, vy, vz)
+        b.state.vel = v if s == 0 else v - g * (0.5 * dt)
+        i = O.bodies.append(b)
+        free.append([i, t, m, inertia])
+        bid[t] = i
+        info[t] = (m, inertia, r)
+        radius_of[i] = r
+        mass_inertia[i] = (m, inertia)
+        born[i] = s
+
+
+insert_batch(0)
+
 # ---- walls: the body ids of each, every one moving at the wall's velocity
 wall_ids, wall_of = [], {}
 for i, w in enumerate(C["walls"]):
@@ -230,6 +258,8 @@ def step_velocities(k):
     """{body id: (v_k, w_k)} of every sphere (members included): talus's end-of-step velocities."""
     V = {}
     for b, t, m, inertia in free:
+        if k > 0 and born.get(b) == k:
+            continue           # inserted at the start of step k: not in talus's row of step k
         s = O.bodies[b].state
         if k == 0:
             V[b] = (proj(s.vel), proj_w(s.angVel))
@@ -291,6 +321,8 @@ def write_row(k, V, ke):
         fw[w] += fwall
         tq[w] += p.cross(fwall)
     cols = [fmt(k * dt), str(k), ctl["name"], fmt(ke), str(n_contacts)]
+    if C["particles_column"]:
+        cols.append(str(len(V)))
     for i in range(nw):
         if removed[i]:
             cols += ["0"] * (6 + (axis_of[i] is not None))
@@ -457,6 +489,8 @@ def next_event(K):
         else:
             cand.append(first_step(ctl["settle_end"], K + 1))
     cand += [s for s in removal.values() if s > K]
+    # a chunk ends before the iteration at whose start particles come in
+    cand += [inserted[0][0] - 1] if inserted and inserted[0][0] - 1 > K else []
     return max(K + 1, min(cand))
 
 
@@ -490,6 +524,7 @@ while ctl["phase"] < len(phases):
             erase(i)
     while to_erase:
         erase(to_erase.pop())
+    insert_batch(K + 1)
 out.close()
 if C["final_state"]:
     # the state of step K: Newton has already moved every body to x(K+1) = x(K) + dt v(K+1/2)
