@@ -1329,13 +1329,13 @@ impl Case {
         if let Some(i) = ins.interval {
             pos("interval", i)?;
         }
-        let (rmin, rmax) = match &ins.radius {
+        let rmax = match &ins.radius {
             RadiusSection::Uniform { min, max } => {
                 pos("radius.min", *min)?;
                 if !(max.is_finite() && max >= min) {
                     return Err(self.err(&format!("{at}.radius.max"), max, "must be at least radius.min"));
                 }
-                (*min, *max)
+                *max
             }
             RadiusSection::Discrete { values, weights } => {
                 if values.is_empty() || values.len() != weights.len() {
@@ -1347,7 +1347,7 @@ impl Case {
                 if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) || weights.iter().sum::<f64>() <= 0.0 {
                     return Err(self.err(&format!("{at}.radius.weights"), format!("{weights:?}"), "must be >= 0 and not all 0"));
                 }
-                (values.iter().cloned().fold(f64::INFINITY, f64::min), values.iter().cloned().fold(0.0, f64::max))
+                crate::insert::max_radius(&ins.radius)
             }
         };
         let v = ins.velocity;
@@ -1378,7 +1378,6 @@ impl Case {
         if self.simulation.integrator != IntegratorKind::Verlet {
             return Err(self.err("simulation.integrator", "\"gear\"", &format!("{at}: inserted particles need integrator = \"verlet\" (Gear's derivatives have no start for them)")));
         }
-        let _ = rmin;
         Ok(())
     }
 

@@ -83,6 +83,14 @@ pub fn max_radius(r: &RadiusSection) -> f64 {
     }
 }
 
+/// Smallest radius an insertion draws.
+pub fn min_radius(r: &RadiusSection) -> f64 {
+    match r {
+        RadiusSection::Uniform { min, .. } => *min,
+        RadiusSection::Discrete { values, .. } => values.iter().cloned().fold(f64::INFINITY, f64::min),
+    }
+}
+
 /// When batch `k` of an insertion is placed, from its phase's start (s).
 pub fn batch_time(ins: &InsertSection, k: u64) -> f64 {
     k as f64 * ins.interval.unwrap_or(DEFAULT_INTERVAL)
@@ -123,12 +131,11 @@ fn draw_centre(region: &RegionSection, r: f64, rng: &mut ChaCha8Rng) -> Vec3 {
     }
 }
 
-/// The particles to place in batch `k` of insertion `ins` (its progress `pr`),
-/// `elapsed` seconds into its phase, with `existing` the (centre, radius) of
-/// every particle that may reach into the region (from every rank). Returns the
-/// new particles (ids from `next_id` on) and updates `pr` and `next_id`; an
-/// error names the insertion (`at`) when a particle cannot be placed.
-#[allow(clippy::too_many_arguments)]
+/// The particles to place in the next batch of insertion `ins` (its progress
+/// `pr`), with `existing` the (centre, radius) of every particle that may reach
+/// into the region (from every rank). Returns the new particles (ids from
+/// `next_id` on) and updates `pr` and `next_id`; an error names the insertion
+/// (`at`) when a particle cannot be placed.
 pub fn place_batch(
     case: &Case,
     at: &str,
@@ -186,11 +193,7 @@ pub fn place_batch(
         (Some(n), _) => pr.count >= n,
         (_, Some(m)) => {
             // the next particle would overshoot the total: the smallest one decides
-            let smallest = match &ins.radius {
-                RadiusSection::Uniform { min, .. } => *min,
-                RadiusSection::Discrete { values, .. } => values.iter().cloned().fold(f64::INFINITY, f64::min),
-            };
-            pr.mass + mass_of(smallest) > m
+            pr.mass + mass_of(min_radius(&ins.radius)) > m
         }
         _ => true,
     };

@@ -1003,10 +1003,7 @@ fn time_step(case: &Case, p: &Particles) -> Result<(f64, f64, f64), TalusError> 
     // the smallest particle a phase will insert counts too
     for ins in case.phases.iter().flat_map(|ph| &ph.inserts) {
         let m = &case.materials[case.material_index(&ins.material, "insert.material")? as usize];
-        let r = match &ins.radius {
-            crate::case::RadiusSection::Uniform { min, .. } => *min,
-            crate::case::RadiusSection::Discrete { values, .. } => values.iter().cloned().fold(f64::INFINITY, f64::min),
-        };
+        let r = crate::insert::min_radius(&ins.radius);
         rmin = rmin.min(r);
         tr = tr.min(rayleigh_time(r, m.density, m.shear_modulus(), m.poisson_ratio));
     }

@@ -180,6 +180,20 @@ fn ranks_times_threads_give_the_serial_single_thread_state() {
     assert_eq!(two_by_two, serial, "2 ranks x 2 threads differ from 1 rank x 1 thread");
 }
 
+/// `steps` steps of `case` give the same state on 1 and 2 ranks, and the same
+/// as 2 ranks for `first` steps then 3 ranks from that checkpoint (in `dir`).
+fn same_on_1_2_ranks_and_after_a_restart_on_3(case: &Path, dir: &Path, steps: u64, first: u64) {
+    let all = steps.to_string();
+    let serial = hash_of(0, case, &dir.join("s"), &["--steps", &all]);
+    assert_eq!(hash_of(2, case, &dir.join("p2"), &["--steps", &all]), serial, "2 ranks differ from the serial run");
+    let a = dir.join("a");
+    hash_of(2, case, &a, &["--steps", &first.to_string()]);
+    let ck = a.join("checkpoint.bin");
+    let rest = (steps - first).to_string();
+    let h_b = hash_of(3, case, &dir.join("b"), &["--steps", &rest, "--restart", ck.to_str().unwrap()]);
+    assert_eq!(h_b, serial, "2 ranks then 3 ranks from the checkpoint after step {first} differ from one serial run");
+}
+
 #[test]
 fn rolling_spring_history_is_bit_identical_across_ranks_and_restarts_on_another_count() {
     // the pile with the epsd2 rolling law: each contact's rolling spring torque
@@ -189,14 +203,7 @@ fn rolling_spring_history_is_bit_identical_across_ranks_and_restarts_on_another_
         c.contact.rolling = Some(talus::case::RollingModel::Epsd2);
         lattice(c).count = 600;
     });
-    let steps = ["--steps", "2400"];
-    let serial = hash_of(0, &case, &d.path().join("s"), &steps);
-    assert_eq!(hash_of(2, &case, &d.path().join("p2"), &steps), serial, "2 ranks differ from the serial run");
-    let a = d.path().join("a");
-    hash_of(2, &case, &a, &["--steps", "1200"]);
-    let ck = a.join("checkpoint.bin");
-    let h_b = hash_of(3, &case, &d.path().join("b"), &["--steps", "1200", "--restart", ck.to_str().unwrap()]);
-    assert_eq!(h_b, serial, "2 ranks then 3 ranks from the checkpoint differ from one serial run");
+    same_on_1_2_ranks_and_after_a_restart_on_3(&case, d.path(), 2400, 1200);
 }
 
 #[test]
@@ -208,12 +215,5 @@ fn a_pour_is_bit_identical_across_ranks_and_restarts_mid_pour_on_another_count()
     let case = write_case(d.path(), "pour.toml", |c| {
         c.phases[0].inserts[0].count = Some(800);
     });
-    let steps = ["--steps", "3000"];
-    let serial = hash_of(0, &case, &d.path().join("s"), &steps);
-    assert_eq!(hash_of(2, &case, &d.path().join("p2"), &steps), serial, "2 ranks differ from the serial run");
-    let a = d.path().join("a");
-    hash_of(2, &case, &a, &["--steps", "1000"]);
-    let ck = a.join("checkpoint.bin");
-    let h_b = hash_of(3, &case, &d.path().join("b"), &["--steps", "2000", "--restart", ck.to_str().unwrap()]);
-    assert_eq!(h_b, serial, "2 ranks then 3 ranks from a checkpoint taken mid-pour differ from one serial run");
+    same_on_1_2_ranks_and_after_a_restart_on_3(&case, d.path(), 3000, 1000);
 }
