@@ -116,6 +116,17 @@ impl Simulation {
         // every rank holds every particle here: inserted ones follow the largest id
         let inserts = crate::insert::Insertions::new(&case, p.id.iter().copied().max().unwrap_or(0) + 1);
         let (dt, tr, rmin) = time_step(&case, &p)?;
+        // a batch every step at most: a shorter interval would place empty batches by the million
+        for ph in &case.phases {
+            for (k, ins) in ph.inserts.iter().enumerate() {
+                if let Some(iv) = ins.interval.filter(|&iv| iv < dt) {
+                    return Err(TalusError::Input(format!(
+                        "{path}: phase.{}.insert[{k}].interval = {iv}: shorter than the time step {dt:.4e} s",
+                        ph.name
+                    )));
+                }
+            }
+        }
         let mut walls = build_walls(&case)?;
         apply_moves(&mut walls, &case, 0, 0.0);
         let s = &case.simulation;

@@ -80,6 +80,12 @@ fn bad_insertions_are_refused_naming_the_key() {
         let e = pour(&sets).unwrap_err();
         assert!(e.contains(want) && e.contains("pour.toml"), "{sets:?}: {e}");
     }
+    // an interval shorter than the time step (known once the run is set up)
+    let e = match Simulation::new(pour(&["phase[0].insert[0].interval=1e-9"]).unwrap()) {
+        Ok(_) => panic!("accepted an interval of 1e-9 s"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("pour.toml: phase.pour.insert[0].interval = 0.000000001: shorter than the time step"), "{e}");
     // a count without its rate
     let text = std::fs::read_to_string(cases_dir().join("pour.toml")).unwrap().replace("rate = 5000.0\n", "");
     let e = Case::parse(&text, &cases_dir().join("pour.toml")).unwrap_err().to_string();
