@@ -167,7 +167,16 @@ impl CaseBuilder {
 
     /// `simulation.domain`: the box particles must stay in, corners in m.
     pub fn domain(mut self, lo: [f64; 3], hi: [f64; 3]) -> Self {
-        self.domain = Some(DomainSection { lo, hi });
+        self.domain = Some(DomainSection { lo, hi, periodic: Vec::new() });
+        self
+    }
+
+    /// `simulation.domain.periodic`: the axes along which the domain is
+    /// periodic (after `domain`).
+    pub fn periodic(mut self, axes: &[crate::case::Axis]) -> Self {
+        if let Some(d) = self.domain.as_mut() {
+            d.periodic = axes.to_vec();
+        }
         self
     }
 

@@ -123,6 +123,42 @@ impl From<SimulationSection> for RawSimulation {
 pub struct DomainSection {
     pub lo: [f64; 3],
     pub hi: [f64; 3],
+    /// Axes along which the domain is periodic (`periodic = ["x", "y"]`): a
+    /// particle leaving through hi comes back through lo, and particles near
+    /// one face touch those near the other (LIGGGHTS `boundary p`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub periodic: Vec<Axis>,
+}
+
+impl DomainSection {
+    /// Whether the domain is periodic along axis k (0 = x).
+    pub fn is_periodic(&self, k: usize) -> bool {
+        self.periodic.iter().any(|a| a.index() == k)
+    }
+
+    /// The period along each axis (m; 0 along an axis that is not periodic).
+    pub fn period(&self) -> [f64; 3] {
+        [0, 1, 2].map(|k| if self.is_periodic(k) { self.hi[k] - self.lo[k] } else { 0.0 })
+    }
+}
+
+/// A coordinate axis, as a case names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -1016,6 +1052,49 @@ impl Case {
         for k in 0..3 {
             if !(lo[k] < hi[k]) {
                 return Err(self.err("simulation.domain", format!("lo {lo:?} hi {hi:?}"), "every lo must be below its hi"));
+            }
+        }
+        self.validate_periodic()
+    }
+
+    /// Periodic axes: each named once, none out of a 2D run's plane; no shape
+    /// the periodic images cannot carry (clumps, ellipses); every plane wall
+    /// parallel to each periodic axis (a plane across one would cut the period).
+    fn validate_periodic(&self) -> Result<(), TalusError> {
+        let s = &self.simulation;
+        let per = &s.domain.periodic;
+        if per.is_empty() {
+            return Ok(());
+        }
+        let at = "simulation.domain.periodic";
+        for (k, a) in per.iter().enumerate() {
+            if per[..k].contains(a) {
+                return Err(self.err(at, format!("{per:?}"), "names an axis twice"));
+            }
+        }
+        if s.dimension == Dimension::Two && per.contains(&Axis::Z) {
+            return Err(self.err(at, format!("{per:?}"), "a 2D run lies in the x-y plane: only x and y can be periodic"));
+        }
+        let pp = &self.particles;
+        if !pp.clumps.is_empty() || !pp.ellipses.is_empty() {
+            return Err(self.err(
+                at,
+                format!("{per:?}"),
+                "clumps and ellipses are not supported in a periodic domain (spheres and discs only): leave out particles.clumps and particles.ellipses",
+            ));
+        }
+        for w in &self.walls {
+            if let WallShape::Plane(PlaneSection { normal, .. }) = &w.shape {
+                let len = normal.iter().map(|c| c * c).sum::<f64>().sqrt();
+                for a in per {
+                    if (normal[a.index()] / len).abs() > 1e-12 {
+                        return Err(self.err(
+                            &format!("wall.{}.normal", w.name),
+                            format!("{normal:?}"),
+                            &format!("a plane wall in a domain periodic along {a:?} must be parallel to that axis (normal component 0 along it)"),
+                        ));
+                    }
+                }
             }
         }
         Ok(())

@@ -41,6 +41,8 @@ pub struct SweepSettings {
     /// threads, `usize::MAX` on one (nothing is split: the sweep runs on the
     /// calling thread and never touches a pool).
     pub grain: usize,
+    /// The period along each axis (m; zero where the domain is not periodic).
+    pub period: Vec3,
 }
 
 /// Touching contacts found by a sweep.
@@ -156,7 +158,7 @@ fn sweep<L: ContactLaw>(
         p.torque[i] = Vec3::zeros();
     }
     law_constants(law, p, walls, nl, table, s.grain);
-    let shapes = Shapes::new(p);
+    let shapes = Shapes::new(p, &s.period);
     let (evaluated, owned) = pair_forces(law, s, p, nl, table, &shapes);
     let wall_contacts = wall_forces(law, s, p, walls, nl, table, &shapes);
     ContactCount { owned: owned + wall_contacts, evaluated: evaluated + wall_contacts }
@@ -314,6 +316,7 @@ fn wall_forces<L: ContactLaw>(
 ) -> usize {
     let (_, consts) = nl.law_constants.get::<L>();
     let (wall_start, wall_feat, wall_inertia, owners) = (&nl.wall_start, &nl.wall_feat, &nl.wall_inertia, &nl.wall_owners);
+    let wall_image = &nl.wall_image;
     // each such particle's slice of the wall history (the others' are empty)
     // (and of the rolling spring torques where the law keeps them; else empty slices)
     let mut hist: Vec<(&mut [Vec3], &mut [Vec3])> = Vec::with_capacity(owners.len());
@@ -342,8 +345,13 @@ fn wall_forces<L: ContactLaw>(
             // all of this particle's wall contacts first, so that coincident ones can
             // be merged and history can follow a contact from one triangle to the next
             hits.clear();
-            for &(wi, feat) in &wall_feat[lo..hi] {
-                hits.push(shapes.wall_hit(pr, i, &ws[wi as usize], feat));
+            // where the particle meets each candidate: itself, or the periodic image the candidate is of
+            let at = |k: usize| match wall_image.get(k) {
+                Some(g) => pr.pos[i] + crate::particles::image_shift(g, &s.period),
+                None => pr.pos[i],
+            };
+            for (k, &(wi, feat)) in wall_feat[lo..hi].iter().enumerate() {
+                hits.push(shapes.wall_hit(pr, i, &at(lo + k), &ws[wi as usize], feat));
             }
             merge_coincident(&wall_feat[lo..hi], &mut hits, pr.radius[i]);
             carry_history(&wall_feat[lo..hi], &hits, hist, roll);
@@ -364,7 +372,7 @@ fn wall_forces<L: ContactLaw>(
                 let pm = table.get(pr.material[i], wall.material);
                 // the force acts on the wall at the same point as on the particle, which
                 // moves with the wall's velocity there (a turning wall's rotation included)
-                let point = g.point(pr.pos[i]);
+                let point = g.point(at(lo + k));
                 let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity_at(point), w_j: Vec3::zeros() };
                 let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, r, s.dt);
                 f += c.force;

@@ -157,6 +157,17 @@ pub fn place_batch(
     let mut rng = ChaCha8Rng::seed_from_u64(ins.seed ^ pr.batches.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     let mut placed: Vec<ParticleInit> = Vec::new();
     let vel = Vec3::from(ins.velocity);
+    // squared distance between centres, across periodic faces the nearest image's
+    let period = case.simulation.domain.period();
+    let dist2 = |a: &Vec3, b: &Vec3| {
+        let mut d = a - b;
+        for k in 0..3 {
+            if period[k] > 0.0 {
+                d[k] -= period[k] * (d[k] / period[k]).round();
+            }
+        }
+        d.norm_squared()
+    };
     loop {
         if pr.count >= target_n {
             break;
@@ -168,8 +179,8 @@ pub fn place_batch(
         let mut found = None;
         for _ in 0..ATTEMPTS {
             let c = draw_centre(&ins.region, r, &mut rng);
-            let free = existing.iter().all(|(x, rx)| (x - c).norm_squared() >= (rx + r) * (rx + r))
-                && placed.iter().all(|q| (q.pos - c).norm_squared() >= (q.radius + r) * (q.radius + r));
+            let free = existing.iter().all(|(x, rx)| dist2(x, &c) >= (rx + r) * (rx + r))
+                && placed.iter().all(|q| dist2(&q.pos, &c) >= (q.radius + r) * (q.radius + r));
             if free {
                 found = Some(c);
                 break;

@@ -105,6 +105,11 @@ pub struct NeighborList {
     /// (wall index, feature index).
     pub wall_feat: Vec<(u16, u32)>,
     pub wall_hist: Vec<Vec3>,
+    /// Each wall candidate's periodic image of the particle (periodic domains
+    /// only, else empty): a wall near one periodic face touches the particles
+    /// near the other at their image's place.
+    #[serde(skip)]
+    pub wall_image: Vec<[i32; 3]>,
     /// Each wall candidate's rolling spring torque (as `pair_roll`).
     #[serde(default)]
     pub wall_roll: Vec<Vec3>,
@@ -153,7 +158,11 @@ pub struct NeighborList {
     /// build inside the rank's pool); results do not depend on it.
     #[serde(skip)]
     pub threaded: bool,
-    /// Positions at the last build.
+    /// The period along each axis (m; zero where the domain is not periodic):
+    /// the list sees each particle at `Particles::list_pos`.
+    #[serde(skip)]
+    pub period: Vec3,
+    /// Positions at the last build (as the list saw them).
     pub x_ref: Vec<Vec3>,
     /// Largest distance any wall has moved since the last build (m).
     pub wall_moved: f64,
@@ -210,7 +219,7 @@ impl NeighborList {
         for i in 0..p.owned() {
             let x = &p.pos[i];
             if let Some(r) = self.x_ref.get(i) {
-                max2 = max2.max((x - r).norm_squared());
+                max2 = max2.max((p.list_pos(i, &self.period) - r).norm_squared());
             }
             if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
                 || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
@@ -267,12 +276,12 @@ impl NeighborList {
     /// one particle is owned (ghosts are the particles after `p.owned()`); wall
     /// candidates: owned particles only.
     pub fn build_with(&mut self, p: &Particles, walls: &[Wall], hist: &History) {
-        let grid = CellGrid::new(p, self.skin);
+        let grid = CellGrid::new(p, self.skin, &self.period);
         self.build_pairs(p, &grid, &hist.pairs);
         self.build_incident(p);
         self.build_wall_candidates(p, walls, &hist.walls);
         self.x_ref.clear();
-        self.x_ref.extend_from_slice(&p.pos[..p.owned()]);
+        self.x_ref.extend((0..p.owned()).map(|i| p.list_pos(i, &self.period)));
         self.wall_moved = 0.0;
         self.builds += 1;
     }
@@ -398,7 +407,12 @@ impl NeighborList {
         self.wall_roll.clear();
         self.wall_inertia.clear();
         self.wall_owners.clear();
+        self.wall_image.clear();
         let mut feats = Vec::new();
+        // in a periodic domain a wall also meets the particles' images (a
+        // plane, parallel to every periodic axis, meets each particle once)
+        let periodic = self.period != Vec3::zeros();
+        let shifts = crate::parallel::image_shifts(&self.period);
         for i in 0..p.owned() {
             self.wall_start.push(self.wall_feat.len() as u32);
             let before = self.wall_feat.len();
@@ -406,23 +420,32 @@ impl NeighborList {
                 if !wall.active {
                     continue;
                 }
-                feats.clear();
-                wall.candidates(&p.pos[i], p.radius[i], self.skin, &mut feats);
-                if feats.is_empty() {
-                    continue;
-                }
-                let pi = match wall.curvature_radius() {
-                    None => PairInertia::wall(p.radius[i], p.mass[i]),
-                    Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
-                };
-                for &f in &feats {
-                    self.wall_inertia.push(pi);
-                    self.wall_feat.push((w as u16, f));
-                    let key = (p.id[i], w as u16, f);
-                    let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or(Hist::ZERO);
-                    self.wall_hist.push(h.shear);
-                    if self.rolling_history {
-                        self.wall_roll.push(h.roll);
+                for g in &shifts {
+                    if *g != [0; 3] && matches!(wall.shape, crate::walls::Shape::Plane(_)) {
+                        continue;
+                    }
+                    feats.clear();
+                    let x = p.pos[i] + crate::particles::image_shift(g, &self.period);
+                    wall.candidates(&x, p.radius[i], self.skin, &mut feats);
+                    if feats.is_empty() {
+                        continue;
+                    }
+                    if periodic {
+                        self.wall_image.extend(std::iter::repeat(*g).take(feats.len()));
+                    }
+                    let pi = match wall.curvature_radius() {
+                        None => PairInertia::wall(p.radius[i], p.mass[i]),
+                        Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
+                    };
+                    for &f in &feats {
+                        self.wall_inertia.push(pi);
+                        self.wall_feat.push((w as u16, f));
+                        let key = (p.id[i], w as u16, f);
+                        let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or(Hist::ZERO);
+                        self.wall_hist.push(h.shear);
+                        if self.rolling_history {
+                            self.wall_roll.push(h.roll);
+                        }
                     }
                 }
             }
@@ -491,6 +514,15 @@ fn history_runs(p: &Particles, old_pair: &[((u64, u64), Hist)]) -> Vec<u32> {
             k += 1;
         }
     }
+    // in a periodic domain an id can be held twice (a particle and its
+    // image): every copy starts at the run found for the id
+    if !p.image.is_empty() {
+        for i in 0..n {
+            if let Some(r) = lookup(p.id[i]) {
+                first[i] = first[r];
+            }
+        }
+    }
     first
 }
 
@@ -530,7 +562,7 @@ impl Rows {
         // in storage order: a pair's place in the list changes no result
         for a in range {
             self.start.push(self.pairs.len() as u32 - base_k);
-            let xa = p.pos[a];
+            let xa = grid.pos(p, a);
             let ra = p.radius[a];
             let ida = p.id[a];
             // a ghost pairs only with owned particles
@@ -593,16 +625,30 @@ struct CellGrid {
     /// Each particle's cell.
     cells: Vec<usize>,
     sorted: Vec<(u64, u32, [f64; 4])>,
+    period: Vec3,
 }
 
 impl CellGrid {
-    fn new(p: &Particles, skin: f64) -> CellGrid {
+    /// Where the grid sees particle i (its periodic image's place).
+    #[inline]
+    fn pos(&self, p: &Particles, i: usize) -> Vec3 {
+        p.list_pos(i, &self.period)
+    }
+
+    fn new(p: &Particles, skin: f64, period: &Vec3) -> CellGrid {
         let n = p.len();
+        let shifted: Vec<Vec3>;
+        let pos: &[Vec3] = if p.image.is_empty() {
+            &p.pos
+        } else {
+            shifted = (0..n).map(|i| p.list_pos(i, period)).collect();
+            &shifted
+        };
         let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
         // the grid spans the particles' bounding box
         let mut lo = Vec3::repeat(f64::INFINITY);
         let mut hi = Vec3::repeat(f64::NEG_INFINITY);
-        for x in &p.pos {
+        for x in pos {
             lo = lo.inf(x);
             hi = hi.sup(x);
         }
@@ -631,7 +677,7 @@ impl CellGrid {
         };
         // counting sort of particles into cells, with compact copies in cell order
         let mut start = vec![0u32; ncell + 1];
-        let cells: Vec<usize> = p.pos.iter().map(cell_of).collect();
+        let cells: Vec<usize> = pos.iter().map(cell_of).collect();
         for &c in &cells {
             start[c + 1] += 1;
         }
@@ -641,11 +687,11 @@ impl CellGrid {
         let mut fill = start.clone();
         let mut sorted: Vec<(u64, u32, [f64; 4])> = vec![(0, 0, [0.0; 4]); n];
         for (i, &c) in cells.iter().enumerate() {
-            let x = p.pos[i];
+            let x = pos[i];
             sorted[fill[c] as usize] = (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i] + skin]);
             fill[c] += 1;
         }
-        CellGrid { dims, reach, start, cells, sorted }
+        CellGrid { dims, reach, start, cells, sorted, period: *period }
     }
 }
 

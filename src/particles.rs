@@ -40,9 +40,18 @@ pub struct Particles {
     /// rad; integrated from the spin in 2D.
     #[serde(default)]
     pub angle: Vec<f64>,
-    /// The last `ghosts` entries are copies of particles owned by other ranks.
+    /// The last `ghosts` entries are copies of particles owned by other ranks
+    /// (and, in a periodic domain, periodic images of any rank's, this one's too).
     #[serde(default)]
     pub ghosts: usize,
+    /// Periodic domains only (else empty): each particle's image, the whole
+    /// periods to add to its position to place it where the neighbour list
+    /// sees it (`list_pos`). Made with the ghosts at each list rebuild (an
+    /// owned particle's is 0 then, a ghost's its image's shift); an owned
+    /// particle wrapped back into the domain between rebuilds counts the
+    /// period it crossed here, so `pos + image * period` moves continuously.
+    #[serde(skip)]
+    pub image: Vec<[i32; 3]>,
 }
 
 /// One particle's full record: what migrates to another rank, what a ghost is
@@ -91,6 +100,17 @@ impl Particles {
     #[inline(always)]
     pub fn owned(&self) -> usize {
         self.id.len() - self.ghosts
+    }
+
+    /// Where the neighbour search sees particle i: its position plus its
+    /// periodic image's shift (`period` zero along axes that are not periodic;
+    /// the position itself where the domain is not periodic).
+    #[inline]
+    pub fn list_pos(&self, i: usize, period: &Vec3) -> Vec3 {
+        match self.image.get(i) {
+            Some(k) => self.pos[i] + image_shift(k, period),
+            None => self.pos[i],
+        }
     }
 
     pub fn record(&self, i: usize) -> Record {
@@ -147,6 +167,7 @@ impl Particles {
             ($($f:ident),*) => { $( self.$f.truncate(n); )* };
         }
         cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
+        self.image.truncate(n.min(self.image.len()));
         self.ghosts = 0;
     }
 
@@ -209,6 +230,7 @@ impl Particles {
     /// Reorder (or select) particles: entry k becomes old entry perm[k]. Ghosts are dropped.
     pub fn permute(&mut self, perm: &[usize]) {
         self.ghosts = 0;
+        self.image.clear();
         macro_rules! permute {
             ($($f:ident),*) => { $( self.$f = perm.iter().map(|&i| self.$f[i]).collect(); )* };
         }
@@ -260,4 +282,10 @@ impl Particles {
     pub fn total_mass(&self) -> f64 {
         self.mass[..self.owned()].iter().sum()
     }
+}
+
+/// The shift of a periodic image `k` (whole periods along each axis), m.
+#[inline]
+pub fn image_shift(k: &[i32; 3], period: &Vec3) -> Vec3 {
+    Vec3::new(k[0] as f64 * period.x, k[1] as f64 * period.y, k[2] as f64 * period.z)
 }

@@ -134,13 +134,21 @@ impl Simulation {
         let set = Settings {
             dt,
             dim: s.dimension,
-            sweep: SweepSettings { contact: case.contact, opts, gravity: Vec3::from(s.gravity), dt, grain: usize::MAX },
+            sweep: SweepSettings {
+                contact: case.contact,
+                opts,
+                gravity: Vec3::from(s.gravity),
+                dt,
+                grain: usize::MAX,
+                period: Vec3::from(s.domain.period()),
+            },
             integrator: s.integrator,
             domain,
             rayleigh_time: tr,
         };
         let skin = s.skin.unwrap_or(0.2 * rmin);
         let mut nl = NeighborList::new(skin);
+        nl.period = Vec3::from(s.domain.period());
         nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2);
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
@@ -416,6 +424,7 @@ impl Simulation {
         self.par.take_own(&mut st.p, &mut st.gear, &mut hist);
         let hist = self.par.migrate(&mut st.p, &mut st.gear, hist);
         st.nl.rolling_history = self.state.nl.rolling_history;
+        st.nl.period = self.state.nl.period;
         st.nl.build_with(&st.p, &st.walls, &hist);
         self.state = st;
     }
@@ -450,7 +459,8 @@ impl Simulation {
                 let mine: Vec<(Vec3, f64)> = (0..st.p.owned())
                     .filter(|&i| {
                         let x = st.p.pos[i];
-                        (0..3).all(|a| x[a] >= lo[a] - reach && x[a] <= hi[a] + reach)
+                        // along a periodic axis a particle may reach the region across the face
+                        (0..3).all(|a| self.par.period[a] > 0.0 || (x[a] >= lo[a] - reach && x[a] <= hi[a] + reach))
                     })
                     .map(|i| (st.p.pos[i], st.p.radius[i]))
                     .collect();
@@ -642,6 +652,8 @@ impl Simulation {
             }
             IntegratorKind::Gear => self.state.gear.predict(&mut self.state.p, dt),
         }
+        let dom = &self.set.domain;
+        self.par.wrap(&mut self.state.p, &dom.lo, &dom.hi);
         self.par.timers.integrate += t0.elapsed().as_secs_f64();
         let mut moved: f64 = 0.0;
         let t_next = (self.state.step + 1) as f64 * dt;
@@ -1105,7 +1117,22 @@ fn build_parallel(case: &Case, comm: Rc<Comm>, p: &Particles, domain: &Domain, s
         .fold(p.radius.iter().cloned().fold(0.0, f64::max), f64::max);
     let pc = &case.parallel;
     let balance = BalanceSettings { mode: pc.balance, tolerance: pc.imbalance_percent / 100.0, interval: pc.balance_interval };
-    let mut par = Parallel::new(comm, dec, 2.0 * rmax + skin, balance);
+    let range = 2.0 * rmax + skin;
+    let mut par = Parallel::new(comm, dec, range, balance);
     par.order = pc.order;
+    par.period = Vec3::from(case.simulation.domain.period());
+    // a particle must meet at most one image of another: each period longer
+    // than twice the reach of the neighbour search
+    for (k, a) in ["x", "y", "z"].iter().enumerate() {
+        let l = par.period[k];
+        if l > 0.0 && l <= 2.0 * range {
+            return Err(TalusError::Input(format!(
+                "{}: simulation.domain.periodic: the period along {a} is {l:.4e} m, not longer than twice the neighbour reach (2 x (largest diameter {:.4e} m + skin {skin:.4e} m) = {:.4e} m); make the domain longer along {a}",
+                case.path.display(),
+                2.0 * rmax,
+                2.0 * range
+            )));
+        }
+    }
     Ok(par)
 }

@@ -191,19 +191,35 @@ fn spheres_apart_by(d: Vec3, dist2: f64, r_i: f64, r_j: f64) -> ContactGeom {
 pub struct Shapes {
     /// Every particle as an ellipse (a round one with a = b), only when the run has ellipses.
     ellipses: Vec<Ellipse>,
+    /// The period along each axis where the domain is periodic (else None).
+    period: Option<Vec3>,
 }
 
 impl Shapes {
-    pub fn new(p: &Particles) -> Self {
+    /// The shapes of `p` in a domain of this period (zero: not periodic along that axis).
+    pub fn new(p: &Particles, period: &Vec3) -> Self {
         let ellipses = if p.ellipse.iter().any(|&e| e) { (0..p.len()).map(|i| p.ellipse_of(i)).collect() } else { Vec::new() };
-        Shapes { ellipses }
+        let period = (!p.image.is_empty()).then_some(*period);
+        Shapes { ellipses, period }
     }
 
     /// Geometry of the contact of particles a (i) and b (j), if they touch.
     #[inline(always)]
     pub fn pair(&self, p: &Particles, a: usize, b: usize) -> Option<ContactGeom> {
         // bounding spheres first (an ellipse's radius is its semi-major axis)
-        let d = p.pos[a] - p.pos[b];
+        let mut d = p.pos[a] - p.pos[b];
+        if let Some(l) = &self.period {
+            // across a periodic face: the owners' position bits, then whole
+            // periods (the images' difference, an integer times the period), so
+            // every rank that evaluates the pair gets the same bits
+            let (ka, kb) = (p.image[a], p.image[b]);
+            for k in 0..3 {
+                let n = ka[k] - kb[k];
+                if n != 0 {
+                    d[k] += n as f64 * l[k];
+                }
+            }
+        }
         let rsum = p.radius[a] + p.radius[b];
         let dist2 = d.norm_squared();
         if dist2 >= rsum * rsum {
@@ -215,12 +231,13 @@ impl Shapes {
         }
     }
 
-    /// Particle i's contact with one feature of a wall (none if the wall was removed).
+    /// Particle i's contact with one feature of a wall (none if the wall was
+    /// removed), the particle at `x` (its position, or a periodic image's).
     #[inline(always)]
-    pub fn wall_hit(&self, p: &Particles, i: usize, wall: &Wall, feature: u32) -> Option<WallHit> {
+    pub fn wall_hit(&self, p: &Particles, i: usize, x: &Vec3, wall: &Wall, feature: u32) -> Option<WallHit> {
         match (wall.active, p.ellipse[i]) {
             (false, _) => None,
-            (true, false) => wall.contact(feature, &p.pos[i], p.radius[i]),
+            (true, false) => wall.contact(feature, x, p.radius[i]),
             (true, true) => wall.ellipse_contact(feature, &self.ellipses[i]),
         }
     }

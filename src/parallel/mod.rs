@@ -23,7 +23,9 @@ mod ghosts;
 mod migration;
 
 pub use balance::{BalanceMode, BalanceSettings};
+pub use ghosts::image_shifts;
 use comm::Comm;
+use crate::dim::Vec3;
 use decomp::Decomposition;
 use serde::{Deserialize, Serialize};
 use std::rc::Rc;
@@ -72,8 +74,15 @@ pub struct Parallel {
     pub range: f64,
     /// Owned particles (local indices) each neighbour rank keeps as ghosts.
     send: Vec<(usize, Vec<u32>)>,
+    /// The periodic image shift of each ghost in `send` (periodic domains only).
+    send_img: Vec<Vec<[i32; 3]>>,
     /// Ghosts received from each neighbour rank, in the order they are stored.
     recv: Vec<(usize, usize)>,
+    /// Periodic images of this rank's own particles kept as its ghosts (after
+    /// the received ones): the owned particle and the image's shift.
+    self_images: Vec<(u32, [i32; 3])>,
+    /// The period along each axis (m; 0 where the domain is not periodic).
+    pub period: Vec3,
     pub balance: BalanceSettings,
     /// Where this rank's time went (s).
     pub timers: Timers,
@@ -119,7 +128,10 @@ impl Parallel {
             dec,
             range,
             send: Vec::new(),
+            send_img: Vec::new(),
             recv: Vec::new(),
+            self_images: Vec::new(),
+            period: Vec3::zeros(),
             balance,
             timers: Timers::default(),
             check_compute_s: 0.0,
