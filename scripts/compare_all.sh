@@ -52,6 +52,14 @@ echo "compare cases/shear-servo.toml (talus,yade, exported): within tolerance"
 python3 -m compare cases/drag-pressure.toml --engines talus,yade --out "$out/case-drag-pressure" > "$out-case-drag-pressure.log" 2>&1 \
   || { cat "$out-case-drag-pressure.log"; echo "compare cases/drag-pressure.toml: FAILED"; exit 1; }
 echo "compare cases/drag-pressure.toml (talus,yade, exported): within tolerance"
+# periodic boundaries: the inclined chute against LIGGGHTS (YADE's periodic cell takes no wall), the cooling
+# granular gas (no wall) against LIGGGHTS and YADE
+python3 -m compare cases/chute.toml --engines talus,liggghts --no-explain --out "$out/case-chute" > "$out-case-chute.log" 2>&1 \
+  || { cat "$out-case-chute.log"; echo "compare cases/chute.toml: FAILED"; exit 1; }
+echo "compare cases/chute.toml (talus,liggghts, exported): within tolerance"
+python3 -m compare cases/cooling.toml --engines talus,liggghts,yade --no-explain --out "$out/case-cooling" > "$out-case-cooling.log" 2>&1 \
+  || { cat "$out-case-cooling.log"; echo "compare cases/cooling.toml: FAILED"; exit 1; }
+echo "compare cases/cooling.toml (talus,liggghts,yade, exported): within tolerance"
 if [ "$full" = 1 ]; then
   python3 -m compare cases/drum.toml --engines talus,liggghts,yade --no-explain --out "$out/case-drum-3" > "$out-case-drum-3.log" 2>&1 \
     || { cat "$out-case-drum-3.log"; echo "compare cases/drum.toml (three engines): FAILED"; exit 1; }

@@ -709,6 +709,11 @@ pub struct OutputSection {
     /// are measured alike in every engine.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub final_state: bool,
+    /// Report the particles' total momentum (`momentum_x_kg_m_s`, ...; an
+    /// exact sum): a chute's flow rate per unit width is its x component over
+    /// the domain's length.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub momentum: bool,
 }
 
 impl Default for OutputSection {
@@ -719,6 +724,7 @@ impl Default for OutputSection {
             track: vec![],
             snapshot_interval: None,
             final_state: false,
+            momentum: false,
             checkpoint_interval: None,
         }
     }

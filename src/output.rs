@@ -64,6 +64,9 @@ impl Probes {
         if o.mass_below_z.is_some() {
             h.push_str(",mass_below_kg");
         }
+        if o.momentum {
+            h.push_str(",momentum_x_kg_m_s,momentum_y_kg_m_s,momentum_z_kg_m_s");
+        }
         for id in &track {
             for q in [
                 "x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "wx_rad_s", "wy_rad_s", "wz_rad_s", "fx_n", "fy_n",
@@ -84,6 +87,7 @@ impl Probes {
         let contacts = sim.contacts();
         let mb = self.mass_below_z.map(|z| sim.mass_below(z));
         let count = inserting(sim).then(|| sim.particle_count());
+        let momentum = sim.case().output.momentum.then(|| sim.momentum());
         let tracked = if self.track.is_empty() { Vec::new() } else { sim.tracked(&self.track) };
         let Some(out) = self.out.as_mut() else { return Ok(mb) };
         let mut line = format!("{:.9e},{},{},{:.9e},{}", st.time, st.step, phase, ke, contacts);
@@ -105,6 +109,11 @@ impl Probes {
         }
         if let Some(m) = mb {
             line.push_str(&format!(",{m:.9e}"));
+        }
+        if let Some(q) = momentum {
+            for k in 0..3 {
+                line.push_str(&format!(",{:.9e}", q[k]));
+            }
         }
         for r in tracked.iter().flatten() {
             for v in [r.pos, r.vel, r.omega, r.force] {

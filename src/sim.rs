@@ -593,6 +593,19 @@ impl Simulation {
         v[0]
     }
 
+    /// Total momentum of the particles on all ranks (kg m/s; exact sums, a collective).
+    pub fn momentum(&self) -> Vec3 {
+        let p = &self.state.p;
+        let mut v = [0i128; 3];
+        for i in 0..p.owned() {
+            for k in 0..3 {
+                v[k] += to_fixed(p.mass[i] * p.vel[i][k]);
+            }
+        }
+        self.sum_exact(&mut v);
+        Vec3::new(from_fixed(v[0]), from_fixed(v[1]), from_fixed(v[2]))
+    }
+
     /// Particles over all ranks (a collective).
     pub fn particle_count(&self) -> u64 {
         let mut v = [self.state.p.owned() as u64];

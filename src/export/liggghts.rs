@@ -498,10 +498,12 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
     }
     let header_notes = notes.len();
     let _ = writeln!(w, "\nunits           si\natom_style      granular\natom_modify     map array");
+    // periodic axes as `p` (a 2D run is periodic across its thin z as LIGGGHTS wants)
+    let b = |k: usize| if case.simulation.domain.is_periodic(k) { "p" } else { "f" };
     if two_d {
-        let _ = writeln!(w, "dimension       2\nboundary        f f p");
+        let _ = writeln!(w, "dimension       2\nboundary        {} {} p", b(0), b(1));
     } else {
-        let _ = writeln!(w, "boundary        f f f");
+        let _ = writeln!(w, "boundary        {} {} {}", b(0), b(1), b(2));
     }
     let _ = writeln!(w, "newton          off\ncommunicate     single vel yes");
     if case.materials.iter().any(|m| m.youngs_modulus < 5e6) {
@@ -762,6 +764,19 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
         header.push_str(",mass_below_kg");
         row.push_str(",${mb}");
         thermo.push_str(" v_mb");
+    }
+    if case.output.momentum {
+        for c in ["x", "y", "z"] {
+            let _ = writeln!(w, "variable p{c}_atom atom mass*v{c}");
+        }
+        let _ = writeln!(w, "compute mom grains reduce sum v_px_atom v_py_atom v_pz_atom");
+        for (k, c) in ["x", "y", "z"].iter().enumerate() {
+            let _ = writeln!(w, "variable mom_{c} equal c_mom[{}]", k + 1);
+            let _ = write!(header, ",momentum_{c}_kg_m_s");
+            let _ = write!(row, ",${{mom_{c}}}");
+            // in the thermo output, so the compute is current at the end of every run
+            let _ = write!(thermo, " v_mom_{c}");
+        }
     }
     for &id in &case.output.track {
         let l = id + shift;

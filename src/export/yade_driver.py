@@ -27,6 +27,19 @@ g = Vector3(*C["gravity"])
 ZERO = Vector3(0.0, 0.0, 0.0)
 O.reset()
 O.dt = dt
+lo, hi = Vector3(*C["domain"][0]), Vector3(*C["domain"][1])
+periodic = C["periodic"]
+if any(periodic):
+    # YADE's cell is periodic along every axis: along one talus bounds, twice the
+    # domain's length, so no sphere meets another's image there. YADE keeps
+    # positions unwrapped; the outputs give them back inside talus's domain.
+    O.periodic = True
+    O.cell.setBox(Vector3(*[(hi[c] - lo[c]) * (1 if periodic[c] else 2) for c in range(3)]))
+
+
+def wrap(x):
+    """A position brought into talus's domain along the periodic axes."""
+    return Vector3(*[lo[c] + math.fmod(math.fmod(x[c] - lo[c], hi[c] - lo[c]) + (hi[c] - lo[c]), hi[c] - lo[c]) if periodic[c] else x[c] for c in range(3)])
 
 
 def proj(v):
@@ -342,8 +355,10 @@ def write_row(k, V, ke):
     if C["mass_below_z"] is not None:
         z = C["mass_below_z"]
         cols.append(fmt(math.fsum(info[t][0] for t, b in bid.items() if O.bodies[b].state.pos[2] < z)))
+    if C["momentum"]:
+        cols += [fmt(math.fsum(info[t][0] * V[b][0][c] for t, b in bid.items())) for c in range(3)]
     for t, b in tracked:
-        x = O.bodies[b].state.pos
+        x = wrap(O.bodies[b].state.pos)
         v, w = V[b]
         f = O.forces.f(b, True) + g * info[t][0]
         cols += [fmt(q) for q in (x[0], x[1], x[2], v[0], v[1], v[2], w[0], w[1], w[2], f[0], f[1], f[2])]
@@ -505,7 +520,6 @@ O.engines = [
     NewtonIntegrator(damping=0.0, gravity=g),
 ]
 
-lo, hi = Vector3(*C["domain"][0]), Vector3(*C["domain"][1])
 K = -1
 if not phases:
     O.run(1, True)
@@ -515,7 +529,7 @@ while ctl["phase"] < len(phases):
     O.run(n - K, True)       # iterations K+1 .. n
     K = n
     for t, b in bid.items():
-        x = O.bodies[b].state.pos
+        x = wrap(O.bodies[b].state.pos)
         if any(not (lo[c] <= x[c] <= hi[c]) for c in range(3)):
             out.close()
             sys.exit("talus export: particle %d left the domain at step %d: (%g, %g, %g)" % (t, K, x[0], x[1], x[2]))
@@ -532,6 +546,6 @@ if C["final_state"]:
         fh.write("id,x,y,z,vx,vy,vz,radius\n")
         for t in sorted(bid):
             s = O.bodies[bid[t]].state
-            x = s.pos - s.vel * dt
+            x = wrap(s.pos - s.vel * dt)
             fh.write("%d,%s,%s,%s,%s,%s,%s,%s\n" % (t, fmt(x[0]), fmt(x[1]), fmt(x[2]), fmt(s.vel[0]), fmt(s.vel[1]), fmt(s.vel[2]), fmt(info[t][2])))
 print("TALUS-EXPORT-DONE step=%d rows=%d force_check=%.3g" % (K, stats["rows"], stats["force_check"]))
