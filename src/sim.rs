@@ -153,6 +153,7 @@ impl Simulation {
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
         check_initial_overlaps(&case, &p, &nl)?;
+        check_periodic_overlaps(&case, &p, &domain, skin)?;
         checks::wall_overlaps(&case, &p, &walls)?;
         let clumps = build_clumps(&case, &comm, &mut p)?;
         let pe0 = p.potential_energy(set.sweep.gravity);
@@ -1079,6 +1080,35 @@ fn check_initial_overlaps(case: &Case, p: &Particles, nl: &NeighborList) -> Resu
         }
     }
     Ok(())
+}
+
+/// In a periodic domain, the start's overlaps across the periodic faces too:
+/// the particles with their images near the domain (shifted copies, as ghosts
+/// of the check's own list), through the same test.
+fn check_periodic_overlaps(case: &Case, p: &Particles, domain: &Domain, skin: f64) -> Result<(), TalusError> {
+    let period = Vec3::from(case.simulation.domain.period());
+    if period == Vec3::zeros() {
+        return Ok(());
+    }
+    let reach = 2.0 * p.radius.iter().cloned().fold(0.0, f64::max) + skin;
+    let mut q = p.clone();
+    let mut images = 0;
+    for g in crate::parallel::image_shifts(&period).into_iter().skip(1) {
+        let s = crate::particles::image_shift(&g, &period);
+        for i in 0..p.len() {
+            let x = p.pos[i] + s;
+            if (0..3).all(|k| x[k] > domain.lo[k] - reach && x[k] < domain.hi[k] + reach) {
+                let mut r = p.record(i);
+                r.pos = x;
+                q.push_record(&r);
+                images += 1;
+            }
+        }
+    }
+    q.ghosts = images;
+    let mut nl = NeighborList::new(skin);
+    nl.build(&q, &[]);
+    check_initial_overlaps(case, &q, &nl)
 }
 
 /// The rigid clumps (dumbbells) `particles.clumps` names.

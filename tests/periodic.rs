@@ -158,6 +158,12 @@ fn bad_periodic_input_is_refused_naming_the_key() {
     assert!(e.contains("simulation.domain.periodic") && e.contains("twice"), "{e}");
     let e = build(two(&[Axis::X]).wall(WallSection::plane("cut", "m", [0.001, 0.0, 0.0], [1.0, 0.0, 0.0]))).err().unwrap();
     assert!(e.contains("wall.cut.normal") && e.contains("parallel"), "{e}");
+    // two spheres that overlap across the face at the start
+    let across = builder(Dimension::Two, [0.0, 0.0, -0.001], [0.02, 0.02, 0.001], [0.0; 3], 0.5, 0.3)
+        .periodic(&[Axis::X])
+        .particle_list("m", vec![ParticleEntry::at(1, [0.0005, 0.01, 0.0], R), ParticleEntry::at(2, [0.0195, 0.01, 0.0], R)]);
+    let e = build(across).err().unwrap();
+    assert!(e.contains("particles 1 and 2 overlap"), "{e}");
     // a period no longer than twice the neighbour reach
     let short = builder(Dimension::Two, [0.0, 0.0, -0.001], [0.004, 0.02, 0.001], [0.0; 3], 0.5, 0.3)
         .periodic(&[Axis::X])
