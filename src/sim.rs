@@ -131,6 +131,7 @@ impl Simulation {
         apply_moves(&mut walls, &case, 0, 0.0);
         let s = &case.simulation;
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
+        let period = Vec3::from(s.domain.period());
         let set = Settings {
             dt,
             dim: s.dimension,
@@ -140,7 +141,7 @@ impl Simulation {
                 gravity: Vec3::from(s.gravity),
                 dt,
                 grain: usize::MAX,
-                period: Vec3::from(s.domain.period()),
+                period,
             },
             integrator: s.integrator,
             domain,
@@ -148,7 +149,7 @@ impl Simulation {
         };
         let skin = s.skin.unwrap_or(0.2 * rmin);
         let mut nl = NeighborList::new(skin);
-        nl.period = Vec3::from(s.domain.period());
+        nl.period = period;
         nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2);
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
