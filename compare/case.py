@@ -79,6 +79,19 @@ def run_talus(case, convention, out, extra=()):
     return read_probes(out / "probes.csv"), json.loads((out / "summary.json").read_text())
 
 
+# The line each exported deck prints as its last act. LIGGGHTS ends a run early and exits
+# with status 0 on SIGINT or SIGTERM ("Forced restart written"), so the exit status alone
+# does not say that the deck ran to its end.
+END_MARKS = {"liggghts": "talus export: done", "yade": "TALUS-EXPORT-DONE"}
+
+
+def check_reached_end(engine, log):
+    text = Path(log).read_text(errors="replace")
+    if END_MARKS[engine] not in text:
+        raise EngineError(f"{engine} stopped before the end of the deck (exit 0, but no '{END_MARKS[engine]}' in {log}; "
+                          f"was it interrupted?):\n{text[-800:]}")
+
+
 def run_reference(case, engine, out, inserted=None):
     """The reference engine on the exported case; a case that inserts particles brings in
     those of `inserted` (the inserted.csv of talus's run in that engine's convention)."""
@@ -94,6 +107,7 @@ def run_reference(case, engine, out, inserted=None):
             run(["liggghts", "-in", "in.talus", "-log", "log.liggghts"], out / "run.log", cwd=out)
         else:
             run(["yade", "-n", "-j", "1", "-x", "talus.py"], out / "run.log", cwd=out)
+        check_reached_end(engine, out / "run.log")
         (out / "finished").write_text(what)
     return read_probes(out / "probes.csv")
 
