@@ -1,4 +1,5 @@
-//! Criterion benches: the force sweep and a full step on a settled H1-small bed,
+//! Criterion benches: the force sweep, a full step and a neighbour-list build on a
+//! settled H1-small bed,
 //! and the cost per particle-step from 5,000 to 100,000 particles in a packed
 //! bed (linear scaling shows as a flat time per particle-step).
 //!
@@ -68,6 +69,10 @@ fn bench_h1(c: &mut Criterion) {
         b.iter(|| sim.force_sweep())
     });
     g.bench_function("full_step", |b| b.iter(|| sim.step().unwrap()));
+    // one neighbour-list build of the settled pile (history carried over by ids)
+    let st = sim.state();
+    let (p, walls, mut nl) = (st.p.clone(), st.walls.clone(), st.nl.clone());
+    g.bench_function("list_build", |b| b.iter(|| nl.build(&p, &walls)));
     g.finish();
 }
 
