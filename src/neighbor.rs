@@ -249,7 +249,7 @@ impl NeighborList {
                 h.pairs.push(((p.id[a as usize], p.id[b as usize]), e));
             }
         }
-        h.pairs.sort_unstable_by_key(|x| x.0);
+        sort_by_key_runs(&mut h.pairs, |k| k.0);
         for i in 0..self.wall_start.len().saturating_sub(1).min(p.len()) {
             for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
                 let e = self.wall_entry(k);
@@ -259,7 +259,7 @@ impl NeighborList {
                 }
             }
         }
-        h.walls.sort_unstable_by_key(|x| x.0);
+        sort_by_key_runs(&mut h.walls, |k| k.0);
         h
     }
 
@@ -528,6 +528,39 @@ impl NeighborList {
     }
 }
 
+/// Sort `v` by key, where it comes as runs already in order of key (a list's
+/// rows, each in order of partner id; `particle` names the particle whose
+/// entry a key is): the runs, each one particle's, are put in order of their
+/// first keys and laid end to end, which is the sorted order unless two runs
+/// overlap (an id held twice, by a particle and its periodic image), and then
+/// `v` is sorted whole. Either way the result is `v` sorted by key. Measured on
+/// H1-paper's discharge (250,000 history entries of 64 bytes), the whole sort
+/// took about 6% of the run; ordering the runs (one a particle) instead moves
+/// each entry once.
+pub fn sort_by_key_runs<K: Ord + Copy, V: Copy>(v: &mut Vec<(K, V)>, particle: impl Fn(&K) -> u64) {
+    if v.windows(2).all(|w| w[0].0 <= w[1].0) {
+        return;
+    }
+    // (first key, start, end) of each run: one particle's entries in order
+    let mut runs: Vec<(K, u32, u32)> = Vec::new();
+    let mut start = 0;
+    for i in 1..=v.len() {
+        if i == v.len() || v[i].0 < v[i - 1].0 || particle(&v[i].0) != particle(&v[i - 1].0) {
+            runs.push((v[start].0, start as u32, i as u32));
+            start = i;
+        }
+    }
+    runs.sort_unstable_by_key(|r| r.0);
+    let mut out = Vec::with_capacity(v.len());
+    for &(_, s, e) in &runs {
+        out.extend_from_slice(&v[s as usize..e as usize]);
+    }
+    if !out.windows(2).all(|w| w[0].0 <= w[1].0) {
+        out.sort_unstable_by_key(|x| x.0);
+    }
+    *v = out;
+}
+
 /// The contact history of the last build, sorted by ids, and where each
 /// particle's run of it starts (`first[a]`: the first entry whose lower id is
 /// particle a's; the end of the history if there is none).
@@ -597,6 +630,9 @@ fn history_runs(p: &Particles, old_pair: &[((u64, u64), Hist)]) -> Vec<u32> {
     first
 }
 
+/// How many particles ahead a row's history is fetched (`Rows::make_part`).
+const HIST_PREFETCH: usize = 8;
+
 /// Particles a thread takes at once when the pairs are found on several threads.
 const ROW_BLOCK: usize = 2048;
 
@@ -636,7 +672,22 @@ impl Rows {
         let base_k = self.pairs.len() as u32;
         let off = seg[range.start] as usize;
         // in storage order: a pair's place in the list changes no result
+        let end = range.end;
         for a in range {
+            // the history of a particle a few places on, fetched ahead: the
+            // history is in order of ids, the rows in storage order, so each
+            // row's run would otherwise start with a miss of the cache
+            #[cfg(target_arch = "x86_64")]
+            if a + HIST_PREFETCH < end {
+                let k = old.first[a + HIST_PREFETCH] as usize;
+                if k < old_pair.len() {
+                    // SAFETY: a prefetch is only a hint, and the address is in bounds
+                    unsafe {
+                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                        _mm_prefetch::<_MM_HINT_T0>(old_pair.as_ptr().add(k) as *const i8);
+                    }
+                }
+            }
             self.start.push(self.pairs.len() as u32 - base_k);
             let row = &mut part[seg[a] as usize - off..seg[a + 1] as usize - off];
             if row.is_empty() {
@@ -870,4 +921,51 @@ pub fn particle_error(p: &Particles, i: usize, domain: &Domain) -> TalusError {
         "particle id {} (radius {:.4e} m) {what}: position ({:.6e}, {:.6e}, {:.6e}), velocity ({:.6e}, {:.6e}, {:.6e})",
         p.id[i], p.radius[i], x.x, x.y, x.z, p.vel[i].x, p.vel[i].y, p.vel[i].z
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sort_by_key_runs;
+
+    /// Rows of a list in storage order (each particle's partners in order of
+    /// id, particles in any order), with and without an id held twice: the
+    /// run sort gives the whole sort's result.
+    #[test]
+    fn sorting_by_runs_gives_the_sorted_history() {
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed >> 33
+        };
+        for twice in [false, true] {
+            let mut v: Vec<((u64, u64), u32)> = Vec::new();
+            let mut owners: Vec<u64> = (0..500).map(|_| next() % 10_000).collect();
+            owners.sort_unstable();
+            owners.dedup();
+            if twice {
+                let o = owners[7];
+                owners.push(o);
+            }
+            // storage order: shuffled
+            for i in (1..owners.len()).rev() {
+                owners.swap(i, next() as usize % (i + 1));
+            }
+            for &a in &owners {
+                let mut partners: Vec<u64> = (0..next() % 6).map(|_| a + 1 + next() % 50).collect();
+                partners.sort_unstable();
+                partners.dedup();
+                v.extend(partners.into_iter().map(|b| ((a, b), (a * 7 + b) as u32)));
+            }
+            let mut want = v.clone();
+            want.sort_unstable_by_key(|x| x.0);
+            sort_by_key_runs(&mut v, |k| k.0);
+            let keys = |x: &[((u64, u64), u32)]| x.iter().map(|e| e.0).collect::<Vec<_>>();
+            assert_eq!(keys(&v), keys(&want));
+            // each entry kept with its value
+            let mut got = v.clone();
+            got.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(got, want);
+        }
+    }
 }

@@ -119,19 +119,10 @@ impl Parallel {
             }
         }
         let mut hist = route.keep;
-        // the list is in storage order: sort the kept history by key (on the
-        // rank's threads where it has several: a sort's result does not depend on them)
-        match &self.pool {
-            Some(pool) if hist.pairs.len() > 4096 => pool.install(|| {
-                use rayon::slice::ParallelSliceMut;
-                hist.pairs.par_sort_unstable_by_key(|x| x.0);
-                hist.walls.par_sort_unstable_by_key(|x| x.0);
-            }),
-            _ => {
-                hist.pairs.sort_unstable_by_key(|x| x.0);
-                hist.walls.sort_unstable_by_key(|x| x.0);
-            }
-        }
+        // the list is in storage order, each row in order of partner id: sort
+        // the kept history by key, run by run
+        crate::neighbor::sort_by_key_runs(&mut hist.pairs, |k| k.0);
+        crate::neighbor::sort_by_key_runs(&mut hist.walls, |k| k.0);
         p.drop_ghosts();
         self.pack_leaving(p, gear, &dest, &mut out);
         self.exchange_owned(p, gear, hist, out, &dest)
