@@ -48,8 +48,9 @@ fn codec() -> impl Options {
     bincode::DefaultOptions::new().with_fixint_encoding().reject_trailing_bytes()
 }
 
-/// Hash of the case text, without its `[parallel]` section: how the work is
-/// split does not change results, so a checkpoint restarts under any.
+/// Hash of the case text, without its `[parallel]` and `[compare]` sections:
+/// how the work is split does not change results, so a checkpoint restarts
+/// under any.
 pub fn case_hash(sim: &Simulation) -> u64 {
     // the parallel and compare sections change no result: left out whole (not
     // reset to their defaults, which a later version may change)
