@@ -225,19 +225,37 @@ impl NeighborList {
     /// Largest displacement of an owned particle since the last build (infinite
     /// if the particle set changed); checks that each is finite and in the domain.
     pub fn displacement(&self, p: &Particles, domain: &Domain) -> Result<f64, TalusError> {
-        let mut max2: f64 = if self.x_ref.len() != p.owned() { f64::INFINITY } else { 0.0 };
-        for i in 0..p.owned() {
-            let x = &p.pos[i];
-            if let Some(r) = self.x_ref.get(i) {
-                max2 = max2.max((p.list_pos(i, &self.period) - r).norm_squared());
+        let n = p.owned();
+        let changed = self.x_ref.len() != n;
+        // the largest squared displacement of particles `range` and the first
+        // of them outside the domain (a maximum is exact in any order)
+        let part = |range: std::ops::Range<usize>| -> (f64, Option<usize>) {
+            let mut max2: f64 = 0.0;
+            for i in range {
+                let x = &p.pos[i];
+                if !changed {
+                    max2 = max2.max((p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared());
+                }
+                if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
+                    || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
+                {
+                    return (max2, Some(i));
+                }
             }
-            if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
-                || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
-            {
-                return Err(particle_error(p, i, domain));
-            }
+            (max2, None)
+        };
+        let (max2, bad) = if !self.threaded || n <= 2 * DISPLACEMENT_BLOCK {
+            part(0..n)
+        } else {
+            (0..n.div_ceil(DISPLACEMENT_BLOCK))
+                .into_par_iter()
+                .map(|b| part(b * DISPLACEMENT_BLOCK..((b + 1) * DISPLACEMENT_BLOCK).min(n)))
+                .reduce(|| (0.0, None), |x, y| (x.0.max(y.0), x.1.or(y.1)))
+        };
+        if let Some(i) = bad {
+            return Err(particle_error(p, i, domain));
         }
-        Ok(max2.sqrt())
+        Ok(if changed { f64::INFINITY } else { max2.sqrt() })
     }
 
     /// The non-zero contact history keyed by global ids, sorted by key.
@@ -300,9 +318,11 @@ impl NeighborList {
     /// from `old_pair` (sorted by ids) and its R*, m*. Each pair is found once
     /// (`CellGrid::search`, a half stencil), then given to the row of its
     /// lower id (a counting sort by that particle), and each row is sorted by
-    /// partner id. On several threads, blocks of the grid are searched at once
-    /// and blocks of rows are made at once, joined in order: the same list as
-    /// on one.
+    /// partner id. Each pair found is one pair of the list, so the counting
+    /// sort's row starts are the list's, and the rows are written in place. On
+    /// several threads, blocks of the grid are searched at once and blocks of
+    /// rows are made at once, each into its own part of the arrays: the same
+    /// list as on one.
     fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Hist)]) {
         let n = p.len();
         let rolling = self.rolling_history;
@@ -352,49 +372,45 @@ impl NeighborList {
         if !threaded {
             self.found = found.into_iter().next().unwrap_or_default();
         }
-        let mut rows = Rows {
-            pairs: std::mem::take(&mut self.pairs),
-            hist: std::mem::take(&mut self.pair_hist),
-            roll: std::mem::take(&mut self.pair_roll),
-            inertia: std::mem::take(&mut self.pair_inertia),
-            start: std::mem::take(&mut self.row_start),
-            rolling,
-        };
-        rows.clear();
+        // one list pair per pair found: particle a's row is `seg[a]..seg[a + 1]`
+        // of every array, written in place (by blocks of rows on several threads)
+        let total = seg[n] as usize;
+        let mut pairs = std::mem::take(&mut self.pairs);
+        let mut hist = std::mem::take(&mut self.pair_hist);
+        let mut roll = std::mem::take(&mut self.pair_roll);
+        let mut inertia = std::mem::take(&mut self.pair_inertia);
+        let zero_inertia = PairInertia { r_eff: 0.0, m_eff: 0.0, sqrt_m_eff: 0.0 };
+        fill_with(&mut pairs, total, (0, 0), threaded);
+        fill_with(&mut hist, total, Vec3::zeros(), threaded);
+        fill_with(&mut roll, if rolling { total } else { 0 }, Vec3::zeros(), threaded);
+        fill_with(&mut inertia, total, zero_inertia, threaded);
         let first = history_runs(p, old_pair);
         let old = OldPairs { pairs: old_pair, first: &first };
         if !threaded {
-            rows.make_part(p, &seg, &mut keyed, &old, 0..n);
+            let mut rows = Rows { pairs: &mut pairs, hist: &mut hist, roll: &mut roll, inertia: &mut inertia };
+            rows.make(p, &seg, &mut keyed, &old, 0..n);
         } else {
             let seg = &seg;
-            let blocks: Vec<Rows> = row_blocks(&mut keyed, seg, n)
-                .into_par_iter()
-                .map(|(range, part)| {
-                    let mut r = Rows { rolling, ..Rows::default() };
-                    r.make_part(p, seg, part, &old, range);
-                    r
+            let roll_blocks = if rolling { row_blocks(&mut roll, seg, n) } else { Vec::new() };
+            let mut roll_blocks = roll_blocks.into_iter();
+            let blocks: Vec<_> = row_blocks(&mut keyed, seg, n)
+                .into_iter()
+                .zip(row_blocks(&mut pairs, seg, n))
+                .zip(row_blocks(&mut hist, seg, n).into_iter().zip(row_blocks(&mut inertia, seg, n)))
+                .map(|(((range, keyed), (_, pairs)), ((_, hist), (_, inertia)))| {
+                    let roll: &mut [Vec3] = roll_blocks.next().map_or(&mut [], |x| x.1);
+                    (range, keyed, Rows { pairs, hist, roll, inertia })
                 })
                 .collect();
-            let total: usize = blocks.iter().map(|b| b.pairs.len()).sum();
-            rows.pairs.reserve(total);
-            rows.hist.reserve(total);
-            rows.inertia.reserve(total);
-            rows.start.reserve(n + 1);
-            for b in blocks {
-                let base = rows.pairs.len() as u32;
-                rows.start.extend(b.start.iter().map(|s| s + base));
-                rows.pairs.extend_from_slice(&b.pairs);
-                rows.hist.extend_from_slice(&b.hist);
-                rows.roll.extend_from_slice(&b.roll);
-                rows.inertia.extend_from_slice(&b.inertia);
-            }
+            blocks.into_par_iter().for_each(|(range, keyed, mut rows)| rows.make(p, seg, keyed, &old, range));
         }
-        rows.start.push(rows.pairs.len() as u32);
-        self.pairs = rows.pairs;
-        self.pair_hist = rows.hist;
-        self.pair_roll = rows.roll;
-        self.pair_inertia = rows.inertia;
-        self.row_start = rows.start;
+        self.pairs = pairs;
+        self.pair_hist = hist;
+        self.pair_roll = roll;
+        self.pair_inertia = inertia;
+        // the rows start where the counting sort put them
+        self.row_start.clear();
+        self.row_start.extend_from_slice(&seg);
         self.row_seg = seg;
         self.row_keyed = keyed;
     }
@@ -443,33 +459,117 @@ impl NeighborList {
             });
         }
         self.incident.clear();
-        self.incident.extend(keyed.iter().map(|x| x.1));
+        let threaded = self.threaded && n_own > 2 * ROW_BLOCK;
+        if threaded {
+            self.incident.par_extend(keyed.par_iter().map(|x| x.1));
+        } else {
+            self.incident.extend(keyed.iter().map(|x| x.1));
+        }
         // a new list starts with no pair touching and zeros for every pair
-        self.pair_touch.clear();
-        self.pair_touch.resize(self.pairs.len(), false);
-        self.pair_out.clear();
-        self.pair_out.resize(self.pairs.len(), PairOut::default());
+        fill_with(&mut self.pair_touch, self.pairs.len(), false, threaded);
+        fill_with(&mut self.pair_out, self.pairs.len(), PairOut::default(), threaded);
     }
 
     /// Every owned particle's wall candidates `(wall, feature)` within reach,
     /// each with its history from `old_wall` (sorted by key) and its R*, m*.
+    /// On several threads, blocks of particles at once, joined in order: the
+    /// same candidates as on one.
     fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: &[((u64, u16, u32), Hist)]) {
-        self.wall_start.clear();
-        self.wall_feat.clear();
-        self.wall_hist.clear();
-        self.wall_roll.clear();
-        self.wall_inertia.clear();
-        self.wall_owners.clear();
-        self.wall_image.clear();
+        let n_own = p.owned();
+        let mut all = WallRows {
+            start: std::mem::take(&mut self.wall_start),
+            feat: std::mem::take(&mut self.wall_feat),
+            hist: std::mem::take(&mut self.wall_hist),
+            roll: std::mem::take(&mut self.wall_roll),
+            inertia: std::mem::take(&mut self.wall_inertia),
+            owners: std::mem::take(&mut self.wall_owners),
+            image: std::mem::take(&mut self.wall_image),
+        };
+        all.clear();
+        let find = WallFind { p, walls, old_wall, skin: self.skin, period: self.period, rolling: self.rolling_history };
+        if !self.threaded || n_own <= 2 * ROW_BLOCK {
+            find.append(&mut all, 0..n_own);
+        } else {
+            let blocks: Vec<WallRows> = (0..n_own.div_ceil(ROW_BLOCK))
+                .into_par_iter()
+                .map(|b| {
+                    let mut r = WallRows::default();
+                    find.append(&mut r, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n_own));
+                    r
+                })
+                .collect();
+            for b in blocks {
+                let base = all.feat.len() as u32;
+                all.start.extend(b.start.iter().map(|s| s + base));
+                all.feat.extend_from_slice(&b.feat);
+                all.hist.extend_from_slice(&b.hist);
+                all.roll.extend_from_slice(&b.roll);
+                all.inertia.extend_from_slice(&b.inertia);
+                all.owners.extend_from_slice(&b.owners);
+                all.image.extend_from_slice(&b.image);
+            }
+        }
+        all.start.push(all.feat.len() as u32);
+        self.wall_start = all.start;
+        self.wall_feat = all.feat;
+        self.wall_hist = all.hist;
+        self.wall_roll = all.roll;
+        self.wall_inertia = all.inertia;
+        self.wall_owners = all.owners;
+        self.wall_image = all.image;
+    }
+}
+
+/// The wall candidates of a range of particles (as the `NeighborList`
+/// fields of the same names; `start` relative to the range's first
+/// candidate and without the closing entry).
+#[derive(Default)]
+struct WallRows {
+    start: Vec<u32>,
+    feat: Vec<(u16, u32)>,
+    hist: Vec<Vec3>,
+    roll: Vec<Vec3>,
+    inertia: Vec<PairInertia>,
+    owners: Vec<u32>,
+    image: Vec<[i32; 3]>,
+}
+
+impl WallRows {
+    fn clear(&mut self) {
+        self.start.clear();
+        self.feat.clear();
+        self.hist.clear();
+        self.roll.clear();
+        self.inertia.clear();
+        self.owners.clear();
+        self.image.clear();
+    }
+}
+
+/// What finding wall candidates reads.
+struct WallFind<'a> {
+    p: &'a Particles,
+    walls: &'a [Wall],
+    old_wall: &'a [((u64, u16, u32), Hist)],
+    skin: f64,
+    period: Vec3,
+    rolling: bool,
+}
+
+impl WallFind<'_> {
+    /// Append the candidates of the owned particles `range` to `out`.
+    fn append(&self, out: &mut WallRows, range: std::ops::Range<usize>) {
+        let (p, old_wall) = (self.p, self.old_wall);
+        let base = out.feat.len();
         let mut feats = Vec::new();
         // in a periodic domain a wall also meets the particles' images (a
         // plane, parallel to every periodic axis, meets each particle once)
         let periodic = self.period != Vec3::zeros();
         let shifts = crate::parallel::image_shifts(&self.period);
-        for i in 0..p.owned() {
-            self.wall_start.push(self.wall_feat.len() as u32);
-            let before = self.wall_feat.len();
-            for (w, wall) in walls.iter().enumerate() {
+        for i in range {
+            out.start.push((out.feat.len() - base) as u32);
+            let before = out.feat.len();
+            for (w, wall) in self.walls.iter().enumerate() {
                 if !wall.active {
                     continue;
                 }
@@ -484,29 +584,28 @@ impl NeighborList {
                         continue;
                     }
                     if periodic {
-                        self.wall_image.extend(std::iter::repeat(*g).take(feats.len()));
+                        out.image.extend(std::iter::repeat(*g).take(feats.len()));
                     }
                     let pi = match wall.curvature_radius() {
                         None => PairInertia::wall(p.radius[i], p.mass[i]),
                         Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
                     };
                     for &f in &feats {
-                        self.wall_inertia.push(pi);
-                        self.wall_feat.push((w as u16, f));
+                        out.inertia.push(pi);
+                        out.feat.push((w as u16, f));
                         let key = (p.id[i], w as u16, f);
                         let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or(Hist::ZERO);
-                        self.wall_hist.push(h.shear);
-                        if self.rolling_history {
-                            self.wall_roll.push(h.roll);
+                        out.hist.push(h.shear);
+                        if self.rolling {
+                            out.roll.push(h.roll);
                         }
                     }
                 }
             }
-            if self.wall_feat.len() > before {
-                self.wall_owners.push(i as u32);
+            if out.feat.len() > before {
+                out.owners.push(i as u32);
             }
         }
-        self.wall_start.push(self.wall_feat.len() as u32);
     }
 }
 
@@ -630,38 +729,31 @@ fn row_blocks<'a, T>(rows: &'a mut [T], start: &[u32], n: usize) -> Vec<(std::op
 /// How many particles ahead a row's history is fetched (`Rows::make_part`).
 const HIST_PREFETCH: usize = 8;
 
+/// Particles a thread checks at once for the displacement since the last build.
+const DISPLACEMENT_BLOCK: usize = 8192;
+
 /// Particles a thread takes at once when the pairs are found on several threads.
 const ROW_BLOCK: usize = 2048;
 
-/// The rows of a range of particles: their pairs, each with its history and
-/// R*, m*, and where each particle's row starts (without the closing entry).
-#[derive(Default)]
-struct Rows {
-    pairs: Vec<(u32, u32)>,
-    hist: Vec<Vec3>,
-    /// Rolling spring torques, kept where `rolling`.
-    roll: Vec<Vec3>,
-    inertia: Vec<PairInertia>,
-    start: Vec<u32>,
-    rolling: bool,
+/// The rows of a range of particles, to be filled in place: their pairs,
+/// each with its history and R*, m* (`roll` empty unless the list keeps
+/// rolling spring torques), laid out as the rows' partners in `keyed`.
+struct Rows<'a> {
+    pairs: &'a mut [(u32, u32)],
+    hist: &'a mut [Vec3],
+    roll: &'a mut [Vec3],
+    inertia: &'a mut [PairInertia],
 }
 
-impl Rows {
-    fn clear(&mut self) {
-        self.pairs.clear();
-        self.hist.clear();
-        self.roll.clear();
-        self.inertia.clear();
-        self.start.clear();
-    }
-
-    /// Append the rows of particles `range`, their partners given as
+impl Rows<'_> {
+    /// Fill the rows of particles `range`, their partners given as
     /// (partner id, partner) in `part` (the rows of `range` only: particle a's
-    /// are `part[seg[a] - seg[range.start]..seg[a + 1] - seg[range.start]]`):
-    /// each row sorted by partner id, each pair with its history and R*, m*.
-    fn make_part(&mut self, p: &Particles, seg: &[u32], part: &mut [(u64, u32)], old: &OldPairs, range: std::ops::Range<usize>) {
+    /// are `part[seg[a] - seg[range.start]..seg[a + 1] - seg[range.start]]`,
+    /// and so are its places in `self`'s arrays): each row sorted by partner
+    /// id, each pair with its history and R*, m*.
+    fn make(&mut self, p: &Particles, seg: &[u32], part: &mut [(u64, u32)], old: &OldPairs, range: std::ops::Range<usize>) {
         let old_pair = old.pairs;
-        let base_k = self.pairs.len() as u32;
+        let rolling = !self.roll.is_empty();
         let off = seg[range.start] as usize;
         // in storage order: a pair's place in the list changes no result
         let end = range.end;
@@ -680,32 +772,42 @@ impl Rows {
                     }
                 }
             }
-            self.start.push(self.pairs.len() as u32 - base_k);
-            let row = &mut part[seg[a] as usize - off..seg[a + 1] as usize - off];
-            if row.is_empty() {
+            let places = seg[a] as usize - off..seg[a + 1] as usize - off;
+            if places.is_empty() {
                 continue;
             }
+            let row = &mut part[places.clone()];
             // (partner id, partner): an id is held twice only by a particle
             // and its periodic image, told apart by their places
             row.sort_unstable();
             let (ida, ra, ma) = (p.id[a], p.radius[a], p.mass[a]);
             // a's old pairs are one run of the sorted history, in the row's order
             let mut cursor = old.first[a] as usize;
-            for &(idb, b) in row.iter() {
+            for (k, &(idb, b)) in places.zip(row.iter()) {
                 let key = (ida, idb);
                 while cursor < old_pair.len() && old_pair[cursor].0 < key {
                     cursor += 1;
                 }
                 let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Hist::ZERO };
-                self.pairs.push((a as u32, b));
-                self.hist.push(h.shear);
-                if self.rolling {
-                    self.roll.push(h.roll);
+                self.pairs[k] = (a as u32, b);
+                self.hist[k] = h.shear;
+                if rolling {
+                    self.roll[k] = h.roll;
                 }
                 let bi = b as usize;
-                self.inertia.push(PairInertia::particles(ra, p.radius[bi], ma, p.mass[bi]));
+                self.inertia[k] = PairInertia::particles(ra, p.radius[bi], ma, p.mass[bi]);
             }
         }
+    }
+}
+
+/// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
+fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: bool) {
+    v.clear();
+    if threaded {
+        v.par_extend(rayon::iter::repeat_n(x, len));
+    } else {
+        v.resize(len, x);
     }
 }
 

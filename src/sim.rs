@@ -496,7 +496,14 @@ impl Simulation {
     fn refresh_lists(&mut self) -> Result<(), TalusError> {
         let st = &mut self.state;
         let t = Instant::now();
-        let (need, err) = match st.nl.displacement(&st.p, &self.set.domain) {
+        // on the rank's threads where the list is built on them (`displacement` splits only a large system)
+        let moved = if st.nl.threaded {
+            let (nl, p, domain) = (&st.nl, &st.p, &self.set.domain);
+            self.pool.install(|| nl.displacement(p, domain))
+        } else {
+            st.nl.displacement(&st.p, &self.set.domain)
+        };
+        let (need, err) = match moved {
             Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
             Err(e) => (true, Some(e.to_string())),
         };
