@@ -153,7 +153,9 @@ fn sweep<L: ContactLaw>(
     nl: &mut NeighborList,
     table: &PairTable,
 ) -> ContactCount {
-    for i in 0..p.len() {
+    // gravity: the owned particles' in the gather (`pair_forces`), which
+    // writes every owned particle's force and torque; the ghosts' here
+    for i in p.owned()..p.len() {
         p.force[i] = s.gravity * p.mass[i];
         p.torque[i] = Vec3::zeros();
     }
@@ -165,10 +167,11 @@ fn sweep<L: ContactLaw>(
 }
 
 /// Pairs in any order (in parallel over the pool's threads), each contact's
-/// force and torques kept in `pair_out`; then every owned particle sums its own
-/// in order of its partners' ids (`NeighborList::incident`): the same sums, bit
-/// for bit, whatever the order of the pairs or of the particles in storage, and
-/// whatever the thread count. Returns (contacts evaluated, contacts owned).
+/// force and torques kept in `pair_out`; then every owned particle sums its
+/// own, from its weight, in order of its partners' ids
+/// (`NeighborList::incident`): the same sums, bit for bit, whatever the order
+/// of the pairs or of the particles in storage, and whatever the thread count.
+/// Returns (contacts evaluated, contacts owned).
 fn pair_forces<L: ContactLaw>(
     law: L,
     s: &SweepSettings,
@@ -187,48 +190,59 @@ fn pair_forces<L: ContactLaw>(
     // two monomorphised sweeps, so that the laws without add nothing per pair
     let n_pairs = nl.pairs.len();
     let ev = PairEval { law, s, pr, shapes, table, touched, n_own };
-    let lists = PairLists { pairs: &nl.pairs, hist: &mut nl.pair_hist, touch: &mut nl.pair_touch, out: &mut nl.pair_out, consts, inertia: &nl.pair_inertia };
+    let lists = PairLists {
+        pairs: &nl.pairs,
+        hist: &mut nl.pair_hist,
+        touch: &mut nl.pair_touch,
+        out: &mut nl.pair_out,
+        consts,
+        inertia: &nl.pair_inertia,
+    };
     let counts = if nl.pair_roll.len() == n_pairs && n_pairs > 0 {
         ev.sweep(lists, nl.pair_roll.par_iter_mut().map(Some))
     } else {
         ev.sweep(lists, (0..n_pairs).into_par_iter().map(|_| None))
     };
     let (start, incident, rows, touch, out) = (&nl.incident_start, &nl.incident, &nl.row_start, &nl.pair_touch, &nl.pair_out);
+    let (gravity, mass) = (s.gravity, &p.mass);
     let gather = |(i, (f, t)): (usize, (&mut Vec3, &mut Vec3))| {
-            // the pair results a later particle will read, fetched ahead
-            #[cfg(target_arch = "x86_64")]
-            if i + PREFETCH < n_own {
-                let j = i + PREFETCH;
-                for &k in &incident[start[j] as usize..start[j + 1] as usize] {
-                    // SAFETY: a prefetch is only a hint, and the address is in bounds
-                    unsafe {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        _mm_prefetch::<_MM_HINT_T0>(out.as_ptr().add(k as usize) as *const i8);
-                    }
+        // the pair results a later particle will read, fetched ahead
+        #[cfg(target_arch = "x86_64")]
+        if i + PREFETCH < n_own {
+            let j = i + PREFETCH;
+            for &k in &incident[start[j] as usize..start[j + 1] as usize] {
+                // SAFETY: a prefetch is only a hint, and the address is in bounds
+                unsafe {
+                    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                    _mm_prefetch::<_MM_HINT_T0>(out.as_ptr().add(k as usize) as *const i8);
                 }
             }
-            if !touched[i].load(Ordering::Relaxed) {
-                return;
-            }
-            // partners of lower id (i is the pair's b), in order of id: zeros
-            // for those that do not touch change nothing (f - 0 is f, and a
-            // torque sum, which starts at +0, is never -0, so t + 0 is t) ...
-            // (summed in locals, which stay in registers)
-            let (mut fs, mut ts) = (*f, *t);
-            for &k in &incident[start[i] as usize..start[i + 1] as usize] {
-                let c = &out[k as usize];
-                fs -= c.force;
-                ts += c.torque_b;
-            }
-            // ... then those of higher id: i's row, already in order of id
-            let row = rows[i] as usize..rows[i + 1] as usize;
-            for (c, _) in out[row.clone()].iter().zip(&touch[row]).filter(|x| *x.1) {
-                fs += c.force;
-                ts += c.torque_a;
-            }
+        }
+        // the sums start from gravity and no torque
+        let (mut fs, mut ts) = (gravity * mass[i], Vec3::zeros());
+        if !touched[i].load(Ordering::Relaxed) {
             *f = fs;
             *t = ts;
-        };
+            return;
+        }
+        // partners of lower id (i is the pair's b), in order of id: zeros
+        // for those that do not touch change nothing (f - 0 is f, and a
+        // torque sum, which starts at +0, is never -0, so t + 0 is t) ...
+        // (summed in locals, which stay in registers)
+        for &k in &incident[start[i] as usize..start[i + 1] as usize] {
+            let c = &out[k as usize];
+            fs -= c.force;
+            ts += c.torque_b;
+        }
+        // ... then those of higher id: i's row, already in order of id
+        let row = rows[i] as usize..rows[i + 1] as usize;
+        for (c, _) in out[row.clone()].iter().zip(&touch[row]).filter(|x| *x.1) {
+            fs += c.force;
+            ts += c.torque_a;
+        }
+        *f = fs;
+        *t = ts;
+    };
     if s.grain == usize::MAX {
         p.force[..n_own].iter_mut().zip(p.torque[..n_own].iter_mut()).enumerate().for_each(gather);
     } else {

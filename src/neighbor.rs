@@ -260,6 +260,61 @@ impl NeighborList {
 
     /// The non-zero contact history keyed by global ids, sorted by key.
     pub fn take_history(&self, p: &Particles) -> History {
+        self.history_in_id_order(p, false).unwrap_or_else(|| self.history_sorted(p))
+    }
+
+    /// As [`NeighborList::take_history`], read row by row in order of the
+    /// particles' ids, so that it comes out sorted (a row holds its particle's
+    /// pairs as the lower id, in order of partner id): one pass, on the
+    /// caller's pool's threads where `threaded` (blocks of particles joined in
+    /// order: the same entries). `None` where an id can be held twice (a
+    /// periodic image) or the list is not of these particles.
+    pub fn history_in_id_order(&self, p: &Particles, threaded: bool) -> Option<History> {
+        if !p.image.is_empty() || self.row_start.len() != p.len() + 1 || self.wall_start.len() > p.len() + 1 {
+            return None;
+        }
+        let order = id_order(p)?;
+        let threaded = threaded && order.len() > 2 * ROW_BLOCK;
+        let pair_rows = |range: std::ops::Range<usize>, out: &mut Vec<((u64, u64), Hist)>| {
+            for &a in &order[range] {
+                let a = a as usize;
+                for k in self.row_start[a] as usize..self.row_start[a + 1] as usize {
+                    let e = self.pair_entry(k);
+                    if !e.is_zero() {
+                        out.push(((p.id[a], p.id[self.pairs[k].1 as usize]), e));
+                    }
+                }
+            }
+        };
+        let with_walls = self.wall_start.len().saturating_sub(1);
+        let wall_rows = |range: std::ops::Range<usize>, out: &mut Vec<((u64, u16, u32), Hist)>| {
+            for &i in &order[range] {
+                let i = i as usize;
+                if i >= with_walls {
+                    continue;
+                }
+                for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
+                    let e = self.wall_entry(k);
+                    if !e.is_zero() {
+                        let (w, f) = self.wall_feat[k];
+                        out.push(((p.id[i], w, f), e));
+                    }
+                }
+            }
+        };
+        let mut h = History {
+            pairs: in_blocks(order.len(), threaded, ((0, 0), Hist::ZERO), pair_rows),
+            walls: in_blocks(order.len(), threaded, ((0, 0, 0), Hist::ZERO), wall_rows),
+        };
+        // in order already (a wall's candidates come in the order its search
+        // gives them): each is one pass that finds it so
+        sort_by_key_runs(&mut h.pairs, |k| k.0);
+        sort_by_key_runs(&mut h.walls, |k| k.0);
+        Some(h)
+    }
+
+    /// [`NeighborList::take_history`] in list order, then sorted.
+    fn history_sorted(&self, p: &Particles) -> History {
         let mut h = History::default();
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
             let e = self.pair_entry(k);
@@ -304,7 +359,7 @@ impl NeighborList {
     /// one particle is owned (ghosts are the particles after `p.owned()`); wall
     /// candidates: owned particles only.
     pub fn build_with(&mut self, p: &Particles, walls: &[Wall], hist: &History) {
-        let grid = CellGrid::new(p, self.skin, &self.period);
+        let grid = CellGrid::new(p, self.skin, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
         self.build_pairs(p, &grid, &hist.pairs);
         self.build_incident(p);
         self.build_wall_candidates(p, walls, &hist.walls);
@@ -801,6 +856,67 @@ impl Rows<'_> {
     }
 }
 
+/// The particles' places in order of id (`None` if an id is held twice):
+/// through a table indexed by id where the ids are dense, else by a sort.
+fn id_order(p: &Particles) -> Option<Vec<u32>> {
+    let n = p.len();
+    let (Some(&lo), Some(&hi)) = (p.id.iter().min(), p.id.iter().max()) else {
+        return Some(Vec::new());
+    };
+    if hi - lo < 4 * n as u64 + 1024 {
+        let mut table = vec![u32::MAX; (hi - lo + 1) as usize];
+        for (i, &id) in p.id.iter().enumerate() {
+            let t = &mut table[(id - lo) as usize];
+            if *t != u32::MAX {
+                return None;
+            }
+            *t = i as u32;
+        }
+        Some(table.into_iter().filter(|&i| i != u32::MAX).collect())
+    } else {
+        let mut v: Vec<(u64, u32)> = p.id.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
+        v.sort_unstable();
+        if v.windows(2).any(|w| w[0].0 == w[1].0) {
+            return None;
+        }
+        Some(v.into_iter().map(|x| x.1).collect())
+    }
+}
+
+/// The entries `f` appends for places `0..n`, in order: on one thread one
+/// pass; on several, blocks of places at once, each into its own array, then
+/// copied into their places of the whole at once.
+fn in_blocks<T: Copy + Send + Sync>(
+    n: usize,
+    threaded: bool,
+    zero: T,
+    f: impl Fn(std::ops::Range<usize>, &mut Vec<T>) + Sync,
+) -> Vec<T> {
+    let mut out = Vec::new();
+    if !threaded {
+        f(0..n, &mut out);
+        return out;
+    }
+    let parts: Vec<Vec<T>> = (0..n.div_ceil(ROW_BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let mut v = Vec::new();
+            f(b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n), &mut v);
+            v
+        })
+        .collect();
+    fill_with(&mut out, parts.iter().map(Vec::len).sum(), zero, true);
+    let mut places = Vec::with_capacity(parts.len());
+    let mut rest = &mut out[..];
+    for part in &parts {
+        let (s, r) = std::mem::take(&mut rest).split_at_mut(part.len());
+        places.push(s);
+        rest = r;
+    }
+    places.into_par_iter().zip(parts.par_iter()).for_each(|(s, part)| s.copy_from_slice(part));
+    out
+}
+
 /// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
 fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: bool) {
     v.clear();
@@ -877,7 +993,9 @@ impl CellGrid {
         }
     }
 
-    fn new(p: &Particles, skin: f64, period: &Vec3) -> CellGrid {
+    /// (`threaded`: the bounding box and each particle's cell on the pool's
+    /// threads; a minimum and a maximum are exact in any order.)
+    fn new(p: &Particles, skin: f64, period: &Vec3, threaded: bool) -> CellGrid {
         let n = p.len();
         let shifted: Vec<Vec3>;
         let pos: &[Vec3] = if p.image.is_empty() {
@@ -888,12 +1006,15 @@ impl CellGrid {
         };
         let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
         // the grid spans the particles' bounding box
-        let mut lo = Vec3::repeat(f64::INFINITY);
-        let mut hi = Vec3::repeat(f64::NEG_INFINITY);
-        for x in pos {
-            lo = lo.inf(x);
-            hi = hi.sup(x);
-        }
+        let far = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        let (mut lo, mut hi) = if threaded {
+            pos.par_iter()
+                .with_min_len(DISPLACEMENT_BLOCK)
+                .fold(|| far, |(lo, hi), x| (lo.inf(x), hi.sup(x)))
+                .reduce(|| far, |a, b| (a.0.inf(&b.0), a.1.sup(&b.1)))
+        } else {
+            pos.iter().fold(far, |(lo, hi), x| (lo.inf(x), hi.sup(x)))
+        };
         if n == 0 {
             lo = Vec3::zeros();
             hi = Vec3::zeros();
@@ -926,7 +1047,11 @@ impl CellGrid {
         };
         // counting sort of particles into cells, with compact copies in cell order
         let mut start = vec![0u32; ncell + 1];
-        let cells: Vec<usize> = pos.iter().map(cell_of).collect();
+        let cells: Vec<usize> = if threaded {
+            pos.par_iter().with_min_len(DISPLACEMENT_BLOCK).map(cell_of).collect()
+        } else {
+            pos.iter().map(cell_of).collect()
+        };
         for &c in &cells {
             start[c + 1] += 1;
         }
@@ -1019,7 +1144,63 @@ pub fn particle_error(p: &Particles, i: usize, domain: &Domain) -> TalusError {
 
 #[cfg(test)]
 mod tests {
-    use super::sort_by_key_runs;
+    use super::{sort_by_key_runs, NeighborList};
+    use crate::dim::Vec3;
+    use crate::particles::{ParticleInit, Particles};
+    use crate::walls::{Plane, Shape, Wall};
+
+    /// A list's history read in order of id (one thread and two, dense ids and
+    /// sparse ones) is the history read in list order and sorted, entry for
+    /// entry; and so is the list built from it again.
+    #[test]
+    fn the_history_read_in_order_of_id_is_the_sorted_history() {
+        let mut seed = 777u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        for sparse in [false, true] {
+            // 12,000 spheres in storage order unrelated to id, overlapping a floor
+            let mut p = Particles::default();
+            let n = 12_000u64;
+            for k in 0..n {
+                let id = if sparse { (k * 7919) % 100_003 * 1_000 } else { (k * 7919) % n };
+                let pos = Vec3::new(next() * 0.06, next() * 0.06, next() * 0.03);
+                p.push_sphere(&ParticleInit { id, pos, vel: Vec3::zeros(), omega: Vec3::zeros(), radius: 1e-3 }, 2500.0, 0);
+            }
+            let floor = Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, 0.005), normal: Vec3::z() }), 0);
+            let walls = [floor];
+            let mut nl = NeighborList::new(5e-4);
+            nl.build(&p, &walls);
+            assert!(
+                nl.pairs.len() > 10_000 && nl.wall_feat.len() > 500,
+                "{} pairs, {} wall candidates",
+                nl.pairs.len(),
+                nl.wall_feat.len()
+            );
+            // history on about half the pairs and wall candidates
+            for h in nl.pair_hist.iter_mut().chain(nl.wall_hist.iter_mut()) {
+                if next() < 0.5 {
+                    *h = Vec3::new(next(), next(), next());
+                }
+            }
+            let want = nl.history_sorted(&p);
+            assert!(want.pairs.windows(2).all(|w| w[0].0 < w[1].0) && want.walls.windows(2).all(|w| w[0].0 < w[1].0));
+            assert!(want.pairs.len() > 5_000 && want.walls.len() > 200);
+            assert_eq!(nl.history_in_id_order(&p, false).as_ref(), Some(&want), "one thread, sparse ids {sparse}");
+            assert_eq!(
+                pool.install(|| nl.history_in_id_order(&p, true)).as_ref(),
+                Some(&want),
+                "two threads, sparse ids {sparse}"
+            );
+            assert_eq!(nl.take_history(&p), want);
+            // and the list made again from it holds the same history
+            let mut again = NeighborList::new(5e-4);
+            again.build_with(&p, &walls, &want);
+            assert_eq!(again.history_sorted(&p), want);
+        }
+    }
 
     /// Rows of a list in storage order (each particle's partners in order of
     /// id, particles in any order), with and without an id held twice: the

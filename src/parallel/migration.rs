@@ -101,6 +101,20 @@ impl Parallel {
     pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> History {
         let n = p.owned();
         let (dest, mut out) = self.destinations(p);
+        // one rank keeps all of it: read in order of id, on the rank's threads
+        let alone = if self.size() == 1 && p.ghosts == 0 {
+            match &self.pool {
+                Some(pool) if nl.threaded => pool.install(|| nl.history_in_id_order(p, true)),
+                _ => nl.history_in_id_order(p, false),
+            }
+        } else {
+            None
+        };
+        if let Some(hist) = alone {
+            p.drop_ghosts();
+            self.pack_leaving(p, gear, &dest, &mut out);
+            return self.exchange_owned(p, gear, hist, out, &dest);
+        }
         let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
         for (k, &(a, b)) in nl.pairs.iter().enumerate() {
             let h = nl.pair_entry(k);

@@ -100,8 +100,8 @@ pub struct Parallel {
     reorders: u64,
     /// Remake the storage order at the next migration (then cleared).
     pub reorder_now: bool,
-    /// The rank's threads, where it has more than one: migration sorts the
-    /// kept contact history on them.
+    /// The rank's threads, where it has more than one: on one rank, migration
+    /// reads the contact history out of the list on them.
     pub pool: Option<std::sync::Arc<rayon::ThreadPool>>,
     /// Particles inserted on this rank (those its box owns), joining the owned
     /// ones at the next migration as arrivals do.
