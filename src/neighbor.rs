@@ -141,12 +141,10 @@ pub struct NeighborList {
     /// Work space of `build_incident`.
     #[serde(skip)]
     pub incident_keyed: Vec<(u64, u32)>,
-    /// Work space of `build_pairs`: the pairs found (one thread), where each
-    /// particle's row starts, and the rows as (partner id, partner).
+    /// Work space of `build_pairs`: the pairs found (one thread) and the rows
+    /// as (partner id, partner).
     #[serde(skip)]
     pub found: Vec<(u32, u32)>,
-    #[serde(skip)]
-    pub row_seg: Vec<u32>,
     #[serde(skip)]
     pub row_keyed: Vec<(u64, u32)>,
     /// Whether each pair touched at the last sweep (one byte a pair: a list
@@ -244,13 +242,10 @@ impl NeighborList {
             }
             (max2, None)
         };
-        let (max2, bad) = if !self.threaded || n <= 2 * DISPLACEMENT_BLOCK {
+        let (max2, bad) = if !self.threaded || n <= 2 * PASS_BLOCK {
             part(0..n)
         } else {
-            (0..n.div_ceil(DISPLACEMENT_BLOCK))
-                .into_par_iter()
-                .map(|b| part(b * DISPLACEMENT_BLOCK..((b + 1) * DISPLACEMENT_BLOCK).min(n)))
-                .reduce(|| (0.0, None), |x, y| (x.0.max(y.0), x.1.or(y.1)))
+            blocks(n, PASS_BLOCK).map(part).reduce(|| (0.0, None), |x, y| (x.0.max(y.0), x.1.or(y.1)))
         };
         if let Some(i) = bad {
             return Err(particle_error(p, i, domain));
@@ -273,7 +268,7 @@ impl NeighborList {
         if !p.image.is_empty() || self.row_start.len() != p.len() + 1 || self.wall_start.len() > p.len() + 1 {
             return None;
         }
-        let order = id_order(p)?;
+        let order = IdIndex::new(p).into_order()?;
         let threaded = threaded && order.len() > 2 * ROW_BLOCK;
         let pair_rows = |range: std::ops::Range<usize>, out: &mut Vec<((u64, u64), Hist)>| {
             for &a in &order[range] {
@@ -384,11 +379,10 @@ impl NeighborList {
         let threaded = self.threaded && n > 2 * ROW_BLOCK;
         // every pair within reach once, as (row owner, partner)
         let found: Vec<Vec<(u32, u32)>> = if threaded {
-            (0..n.div_ceil(ROW_BLOCK))
-                .into_par_iter()
-                .map(|b| {
+            blocks(n, ROW_BLOCK)
+                .map(|range| {
                     let mut f = Vec::new();
-                    grid.search(p, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n), &mut f);
+                    grid.search(p, range, &mut f);
                     f
                 })
                 .collect()
@@ -399,8 +393,9 @@ impl NeighborList {
             vec![f]
         };
         // counting sort by row owner: `keyed[seg[a]..seg[a + 1]]` holds a's
-        // partners as (partner id, partner), sorted within each row later
-        let mut seg = std::mem::take(&mut self.row_seg);
+        // partners as (partner id, partner), sorted within each row later;
+        // one list pair per pair found, so these are the list's row starts
+        let mut seg = std::mem::take(&mut self.row_start);
         seg.clear();
         seg.resize(n + 1, 0);
         for f in &found {
@@ -463,10 +458,7 @@ impl NeighborList {
         self.pair_hist = hist;
         self.pair_roll = roll;
         self.pair_inertia = inertia;
-        // the rows start where the counting sort put them
-        self.row_start.clear();
-        self.row_start.extend_from_slice(&seg);
-        self.row_seg = seg;
+        self.row_start = seg;
         self.row_keyed = keyed;
     }
 
@@ -545,15 +537,14 @@ impl NeighborList {
         if !self.threaded || n_own <= 2 * ROW_BLOCK {
             find.append(&mut all, 0..n_own);
         } else {
-            let blocks: Vec<WallRows> = (0..n_own.div_ceil(ROW_BLOCK))
-                .into_par_iter()
-                .map(|b| {
+            let parts: Vec<WallRows> = blocks(n_own, ROW_BLOCK)
+                .map(|range| {
                     let mut r = WallRows::default();
-                    find.append(&mut r, b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n_own));
+                    find.append(&mut r, range);
                     r
                 })
                 .collect();
-            for b in blocks {
+            for b in parts {
                 let base = all.feat.len() as u32;
                 all.start.extend(b.start.iter().map(|s| s + base));
                 all.feat.extend_from_slice(&b.feat);
@@ -706,48 +697,23 @@ struct OldPairs<'a> {
 }
 
 /// Where each particle's run of the sorted history starts (`OldPairs::first`),
-/// by one pass over the history: particles are looked up by id in a table
-/// indexed by id where the ids are dense (as the generators and files give
-/// them), else by a binary search per run. Looking each particle up in the
-/// history instead (a binary search per particle, in storage order) misses
-/// the cache at every step of every search.
+/// by one pass over the history, each run's particle looked up by id
+/// ([`IdIndex`]). Looking each particle up in the history instead (a binary
+/// search per particle, in storage order) misses the cache at every step of
+/// every search.
 fn history_runs(p: &Particles, old_pair: &[((u64, u64), Hist)]) -> Vec<u32> {
     let n = p.len();
     let end = old_pair.len() as u32;
-    if old_pair.is_empty() {
-        return vec![end; n];
-    }
     // a particle without a run starts at the end: it finds no history
     let mut first = vec![end; n];
-    let max_id = p.id.iter().copied().max().unwrap_or(0);
-    let dense = max_id < (4 * n as u64 + 1024);
-    let local: Vec<u32> = if dense {
-        let mut t = vec![u32::MAX; max_id as usize + 1];
-        for (i, &id) in p.id.iter().enumerate() {
-            t[id as usize] = i as u32;
-        }
-        t
-    } else {
-        Vec::new()
-    };
-    let sorted: Vec<(u64, u32)> = if dense {
-        Vec::new()
-    } else {
-        let mut v: Vec<(u64, u32)> = p.id.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
-        v.sort_unstable();
-        v
-    };
-    let lookup = |id: u64| -> Option<usize> {
-        if dense {
-            local.get(id as usize).copied().filter(|&i| i != u32::MAX).map(|i| i as usize)
-        } else {
-            sorted.binary_search_by_key(&id, |x| x.0).ok().map(|k| sorted[k].1 as usize)
-        }
-    };
+    if old_pair.is_empty() {
+        return first;
+    }
+    let index = IdIndex::new(p);
     let mut k = 0;
     while k < old_pair.len() {
         let ida = old_pair[k].0 .0;
-        if let Some(a) = lookup(ida) {
+        if let Some(a) = index.get(ida) {
             first[a] = k as u32;
         }
         while k < old_pair.len() && old_pair[k].0 .0 == ida {
@@ -756,14 +722,74 @@ fn history_runs(p: &Particles, old_pair: &[((u64, u64), Hist)]) -> Vec<u32> {
     }
     // in a periodic domain an id can be held twice (a particle and its
     // image): every copy starts at the run found for the id
-    if !p.image.is_empty() {
+    if index.twice {
         for i in 0..n {
-            if let Some(r) = lookup(p.id[i]) {
+            if let Some(r) = index.get(p.id[i]) {
                 first[i] = first[r];
             }
         }
     }
     first
+}
+
+/// The particles looked up by global id: through a table indexed by id (less
+/// the lowest) where the ids are dense (as the generators and files give
+/// them), else through the (id, place) pairs sorted by id.
+pub(crate) struct IdIndex {
+    lo: u64,
+    /// Place of each id `lo + k` at `table[k]` (`u32::MAX`: no particle);
+    /// empty where the ids are sparse.
+    table: Vec<u32>,
+    /// (id, place) sorted, where the ids are sparse; else empty.
+    sorted: Vec<(u64, u32)>,
+    /// Whether some id is held twice (a particle and its periodic image);
+    /// `get` then gives one of the two, the same one at every call.
+    twice: bool,
+}
+
+impl IdIndex {
+    pub(crate) fn new(p: &Particles) -> IdIndex {
+        let n = p.len();
+        let (Some(&lo), Some(&hi)) = (p.id.iter().min(), p.id.iter().max()) else {
+            return IdIndex { lo: 0, table: Vec::new(), sorted: Vec::new(), twice: false };
+        };
+        let mut twice = false;
+        if hi - lo < 4 * n as u64 + 1024 {
+            let mut table = vec![u32::MAX; (hi - lo + 1) as usize];
+            for (i, &id) in p.id.iter().enumerate() {
+                let t = &mut table[(id - lo) as usize];
+                twice |= *t != u32::MAX;
+                *t = i as u32;
+            }
+            IdIndex { lo, table, sorted: Vec::new(), twice }
+        } else {
+            let mut sorted: Vec<(u64, u32)> = p.id.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
+            sorted.sort_unstable();
+            twice = sorted.windows(2).any(|w| w[0].0 == w[1].0);
+            IdIndex { lo, table: Vec::new(), sorted, twice }
+        }
+    }
+
+    /// The place of the particle of id `id`, if there is one.
+    pub(crate) fn get(&self, id: u64) -> Option<usize> {
+        if self.sorted.is_empty() {
+            let k = id.checked_sub(self.lo)?;
+            self.table.get(k as usize).copied().filter(|&i| i != u32::MAX).map(|i| i as usize)
+        } else {
+            self.sorted.binary_search_by_key(&id, |x| x.0).ok().map(|k| self.sorted[k].1 as usize)
+        }
+    }
+
+    /// The particles' places in order of id (`None` if an id is held twice).
+    fn into_order(self) -> Option<Vec<u32>> {
+        if self.twice {
+            None
+        } else if self.sorted.is_empty() {
+            Some(self.table.into_iter().filter(|&i| i != u32::MAX).collect())
+        } else {
+            Some(self.sorted.into_iter().map(|x| x.1).collect())
+        }
+    }
 }
 
 /// Rows of particles `0..n` laid end to end in `rows` (particle a's are
@@ -781,11 +807,18 @@ fn row_blocks<'a, T>(rows: &'a mut [T], start: &[u32], n: usize) -> Vec<(std::op
     parts
 }
 
+/// Places `0..n` cut into blocks of `block`, as ranges for the pool's threads
+/// (collected in order).
+fn blocks(n: usize, block: usize) -> impl IndexedParallelIterator<Item = std::ops::Range<usize>> {
+    (0..n.div_ceil(block)).into_par_iter().map(move |b| b * block..((b + 1) * block).min(n))
+}
+
 /// How many particles ahead a row's history is fetched (`Rows::make_part`).
 const HIST_PREFETCH: usize = 8;
 
-/// Particles a thread checks at once for the displacement since the last build.
-const DISPLACEMENT_BLOCK: usize = 8192;
+/// Particles a thread takes at once in a light pass over the particles (the
+/// displacement since the last build, the cell grid's bounding box and cells).
+const PASS_BLOCK: usize = 8192;
 
 /// Particles a thread takes at once when the pairs are found on several threads.
 const ROW_BLOCK: usize = 2048;
@@ -856,33 +889,6 @@ impl Rows<'_> {
     }
 }
 
-/// The particles' places in order of id (`None` if an id is held twice):
-/// through a table indexed by id where the ids are dense, else by a sort.
-fn id_order(p: &Particles) -> Option<Vec<u32>> {
-    let n = p.len();
-    let (Some(&lo), Some(&hi)) = (p.id.iter().min(), p.id.iter().max()) else {
-        return Some(Vec::new());
-    };
-    if hi - lo < 4 * n as u64 + 1024 {
-        let mut table = vec![u32::MAX; (hi - lo + 1) as usize];
-        for (i, &id) in p.id.iter().enumerate() {
-            let t = &mut table[(id - lo) as usize];
-            if *t != u32::MAX {
-                return None;
-            }
-            *t = i as u32;
-        }
-        Some(table.into_iter().filter(|&i| i != u32::MAX).collect())
-    } else {
-        let mut v: Vec<(u64, u32)> = p.id.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
-        v.sort_unstable();
-        if v.windows(2).any(|w| w[0].0 == w[1].0) {
-            return None;
-        }
-        Some(v.into_iter().map(|x| x.1).collect())
-    }
-}
-
 /// The entries `f` appends for places `0..n`, in order: on one thread one
 /// pass; on several, blocks of places at once, each into its own array, then
 /// copied into their places of the whole at once.
@@ -897,11 +903,10 @@ fn in_blocks<T: Copy + Send + Sync>(
         f(0..n, &mut out);
         return out;
     }
-    let parts: Vec<Vec<T>> = (0..n.div_ceil(ROW_BLOCK))
-        .into_par_iter()
-        .map(|b| {
+    let parts: Vec<Vec<T>> = blocks(n, ROW_BLOCK)
+        .map(|range| {
             let mut v = Vec::new();
-            f(b * ROW_BLOCK..((b + 1) * ROW_BLOCK).min(n), &mut v);
+            f(range, &mut v);
             v
         })
         .collect();
@@ -1009,7 +1014,7 @@ impl CellGrid {
         let far = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
         let (mut lo, mut hi) = if threaded {
             pos.par_iter()
-                .with_min_len(DISPLACEMENT_BLOCK)
+                .with_min_len(PASS_BLOCK)
                 .fold(|| far, |(lo, hi), x| (lo.inf(x), hi.sup(x)))
                 .reduce(|| far, |a, b| (a.0.inf(&b.0), a.1.sup(&b.1)))
         } else {
@@ -1048,7 +1053,7 @@ impl CellGrid {
         // counting sort of particles into cells, with compact copies in cell order
         let mut start = vec![0u32; ncell + 1];
         let cells: Vec<usize> = if threaded {
-            pos.par_iter().with_min_len(DISPLACEMENT_BLOCK).map(cell_of).collect()
+            pos.par_iter().with_min_len(PASS_BLOCK).map(cell_of).collect()
         } else {
             pos.iter().map(cell_of).collect()
         };

@@ -99,7 +99,6 @@ impl Parallel {
     /// the current list by local index), then remake the ghosts. Returns the
     /// history the new list must use.
     pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> History {
-        let n = p.owned();
         let (dest, mut out) = self.destinations(p);
         // one rank keeps all of it: read in order of id, on the rank's threads
         let alone = if self.size() == 1 && p.ghosts == 0 {
@@ -110,12 +109,18 @@ impl Parallel {
         } else {
             None
         };
-        if let Some(hist) = alone {
-            p.drop_ghosts();
-            self.pack_leaving(p, gear, &dest, &mut out);
-            return self.exchange_owned(p, gear, hist, out, &dest);
-        }
-        let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
+        let hist = alone.unwrap_or_else(|| self.route_history(p, nl, &dest, &mut out));
+        p.drop_ghosts();
+        self.pack_leaving(p, gear, &dest, &mut out);
+        self.exchange_owned(p, gear, hist, out, &dest)
+    }
+
+    /// The contact history of the list's pairs and wall candidates by ids:
+    /// each entry kept (sorted by key) where one of its particles stays on
+    /// this rank and added to `out[r]` where one goes to rank r.
+    fn route_history(&self, p: &Particles, nl: &NeighborList, dest: &[usize], out: &mut [Migration]) -> History {
+        let n = p.owned();
+        let mut route = Router { me: self.rank(), keep: History::default(), out };
         for (k, &(a, b)) in nl.pairs.iter().enumerate() {
             let h = nl.pair_entry(k);
             if !h.is_zero() {
@@ -137,9 +142,7 @@ impl Parallel {
         // the kept history by key, run by run
         crate::neighbor::sort_by_key_runs(&mut hist.pairs, |k| k.0);
         crate::neighbor::sort_by_key_runs(&mut hist.walls, |k| k.0);
-        p.drop_ghosts();
-        self.pack_leaving(p, gear, &dest, &mut out);
-        self.exchange_owned(p, gear, hist, out, &dest)
+        hist
     }
 
     /// Migrate particles that left this rank's box (used at set-up and restart,
@@ -147,10 +150,9 @@ impl Parallel {
     pub fn migrate(&mut self, p: &mut Particles, gear: &mut GearState, hist: History) -> History {
         p.drop_ghosts();
         let (dest, mut out) = self.destinations(p);
-        // a binary search over the sorted ids finds an entry's particles
-        let mut by_id: Vec<(u64, usize)> = p.id.iter().enumerate().map(|(i, &id)| (id, i)).collect();
-        by_id.sort_unstable();
-        let to = |id: u64| by_id.binary_search_by_key(&id, |x| x.0).ok().map(|k| dest[by_id[k].1]);
+        // an entry's particles looked up by id (each held once: no ghosts)
+        let index = crate::neighbor::IdIndex::new(p);
+        let to = |id: u64| index.get(id).map(|i| dest[i]);
         let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
         for e in hist.pairs {
             route.pair(e, to(e.0 .0), to(e.0 .1));
