@@ -1,6 +1,6 @@
 """python -m compare SETUP [--model hertz|hooke] [--engines talus,liggghts,yade] [--out DIR]
 
-SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper, or `throughput TARGET` with
+SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper [--resume], or `throughput TARGET` with
 TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense settled
 bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
 `python -m compare CASE.toml [--engines talus,liggghts]`: any case, exported to the
@@ -120,7 +120,13 @@ def main(argv=None):
     ap.add_argument("--engines", help="default: talus,liggghts,yade; for the beds talus,lammps,liggghts")
     ap.add_argument("--out", type=Path)
     ap.add_argument("--steps", type=int, help="throughput: run only this many steps (H1: of the fill; beds: of the window) in every engine")
+    ap.add_argument("--resume", action="store_true",
+                    help="H1-small, H1-paper: reuse the finished talus and LIGGGHTS runs in DIR, and run YADE resumably "
+                         "(a checkpoint every 10 min of wall time): an unfinished YADE run in DIR/yade continues from "
+                         "its last checkpoint; run the same command again until it finishes")
     a = ap.parse_args(argv)
+    if a.resume and a.setup not in H1_SETUPS:
+        ap.error("--resume is for H1-small and H1-paper")
     bed = a.setup == "throughput" and a.target in BEDS
     known = ("talus", "lammps", "liggghts") if bed else ("talus", "liggghts", "yade")
     engs = [e.strip() for e in (a.engines or ",".join(known)).split(",") if e.strip()]
@@ -164,7 +170,7 @@ def main(argv=None):
             print(json.dumps(r, indent=1))
             (out / "throughput.json").write_text(json.dumps(r, indent=1))
             return 0
-        result, series_out = h1.compare_h1(a.setup, engs, out)
+        result, series_out = h1.compare_h1(a.setup, engs, out, resume=a.resume)
     except (engines.EngineError, ValueError) as err:
         print(f"compare: {err}", file=sys.stderr)
         return 2

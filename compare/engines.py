@@ -44,6 +44,22 @@ def _run(cmd, log, cwd=ROOT):
         raise EngineError(f"{' '.join(map(str, cmd))} failed (exit {p.returncode}); log {log}:\n{tail}")
 
 
+def _done_marker(work, tag, args):
+    """A finished run's arguments, written next to its output: `compare --resume` reuses the
+    output of a run whose marker holds the same arguments."""
+    import json
+    (Path(work) / f"{tag}.done.json").write_text(json.dumps({k: str(v) for k, v in args.items()}, sort_keys=True) + "\n")
+
+
+def _is_done(work, tag, args):
+    import json
+    p = Path(work) / f"{tag}.done.json"
+    try:
+        return json.loads(p.read_text()) == {k: str(v) for k, v in args.items()}
+    except (OSError, ValueError):
+        return False
+
+
 def case_path(setup):
     """The talus case file of a set-up."""
     return ROOT / "cases" / f"{setup}.toml"
@@ -122,9 +138,10 @@ def run_yade_sc(run, work, dt):
     return out
 
 
-def run_talus_h1(setup, convention, work, max_steps=None, ranks=1, threads=None):
+def run_talus_h1(setup, convention, work, max_steps=None, ranks=1, threads=None, reuse=False):
     """talus on H1 (on `ranks` MPI ranks if more than one, `threads` per rank, default: the
-    cores shared among the ranks); returns (probes.csv, summary dict)."""
+    cores shared among the ranks); returns (probes.csv, summary dict). With `reuse`, a
+    finished run of the same arguments in `work` is not run again."""
     import json
     work.mkdir(parents=True, exist_ok=True)
     tag = f"talus-{convention}" + (f"-p{ranks}" if ranks > 1 else "") + (f"-t{threads}" if threads else "")
@@ -134,22 +151,32 @@ def run_talus_h1(setup, convention, work, max_steps=None, ranks=1, threads=None)
     if threads:
         extra += ["--threads", str(threads)]
     mpi = ["mpirun", "--allow-run-as-root", "-n", str(ranks)] if ranks > 1 else []
-    _run([*mpi, TALUS, "run", case_path(setup), "--out", out, "--quiet", *extra], work / f"{tag}.log")
+    cmd = [*mpi, TALUS, "run", case_path(setup), "--out", out, "--quiet", *extra]
+    args = {"command": " ".join(map(str, cmd))}
+    if not (reuse and _is_done(work, tag, args) and (out / "summary.json").exists()):
+        _run(cmd, work / f"{tag}.log")
+        _done_marker(work, tag, args)
     return out / "probes.csv", json.loads((out / "summary.json").read_text())
 
 
-def run_liggghts_h1(setup, work, fill_time, discharge_time, dt, skin):
-    """LIGGGHTS on H1 from talus's own initial cloud; returns (probes.csv, fill_end.csv, log)."""
+def run_liggghts_h1(setup, work, fill_time, discharge_time, dt, skin, reuse=False):
+    """LIGGGHTS on H1 from talus's own initial cloud; returns (probes.csv, fill_end.csv, log).
+    With `reuse`, a finished run of the same arguments in `work` is not run again."""
     work.mkdir(parents=True, exist_ok=True)
+    probes, fill_end, log = work / "liggghts.csv", work / "liggghts_fill_end.csv", work / "liggghts.log"
+    args = {"setup": setup, "fill_time": repr(fill_time), "discharge_time": repr(discharge_time), "dt": repr(dt),
+            "skin": repr(skin)}
+    if reuse and _is_done(work, "liggghts", args) and probes.exists() and fill_end.exists():
+        return probes, fill_end, log
     cloud = work / "cloud.csv"
     _run([TALUS, "cloud", ROOT / "cases" / f"{setup}.toml", "--out", cloud], work / "cloud.log")
     data = work / "cloud.data"
     _run(["python3", ROOT / "liggghts_cases" / "csv_to_data.py", cloud, data], work / "data.log")
-    probes, fill_end, log = work / "liggghts.csv", work / "liggghts_fill_end.csv", work / "liggghts.log"
     _run(["liggghts", "-in", ROOT / "liggghts_cases" / "H1.in", "-log", log, "-var", "cloud", data,
           "-var", "out", probes, "-var", "out_fill_end", fill_end, "-var", "fill_time", repr(fill_time),
           "-var", "discharge_time", repr(discharge_time), "-var", "dt", repr(dt), "-var", "skin", repr(skin)],
          work / "liggghts.stdout")
+    _done_marker(work, "liggghts", args)
     return probes, fill_end, log
 
 
@@ -165,15 +192,37 @@ def liggghts_loop_seconds(log):
     return secs, steps
 
 
-def run_yade_h1(setup, work, fill_time, discharge_time, dt, skin):
-    """YADE on H1 from talus's own initial cloud; returns (probes.csv, fill_end.csv, wall seconds)."""
+# --resume: YADE saves its whole state this often (wall time, s); COMPARE_YADE_CHECKPOINT_S
+# sets another period (a test of the resume, say)
+YADE_CHECKPOINT_SECONDS = float(os.environ.get("COMPARE_YADE_CHECKPOINT_S", "600"))
+
+
+def run_yade_h1(setup, work, fill_time, discharge_time, dt, skin, resume=False):
+    """YADE on H1 from talus's own initial cloud; returns (probes.csv, fill_end.csv, wall seconds).
+    With `resume`, YADE checkpoints itself (yade_cases/H1.py --checkpoint-every) and an
+    unfinished run in `work` continues from its last checkpoint (a finished one is kept);
+    the wall seconds are then the YADE run's own, summed over its pieces."""
+    import json
     import time
     work.mkdir(parents=True, exist_ok=True)
     cloud = work / "cloud.csv"
-    _run([TALUS, "cloud", ROOT / "cases" / f"{setup}.toml", "--out", cloud], work / "cloud.log")
+    if not (resume and cloud.exists()):  # a resumed run checks the cloud's sha256 against its checkpoint
+        _run([TALUS, "cloud", ROOT / "cases" / f"{setup}.toml", "--out", cloud], work / "cloud.log")
     probes, fill_end = work / "yade.csv", work / "yade_fill_end.csv"
-    t0 = time.perf_counter()
-    _run(["yade", "-n", "-j", "1", "-x", ROOT / "yade_cases" / "H1.py", "--cloud", cloud, "--out", probes,
-          "--out-fill-end", fill_end, "--fill-time", repr(fill_time), "--discharge-time", repr(discharge_time),
-          "--dt", repr(dt), "--skin", repr(skin)], work / "yade.log")
-    return probes, fill_end, time.perf_counter() - t0
+    cmd = ["yade", "-n", "-j", "1", "-x", ROOT / "yade_cases" / "H1.py", "--cloud", cloud, "--out", probes,
+           "--out-fill-end", fill_end, "--fill-time", repr(fill_time), "--discharge-time", repr(discharge_time),
+           "--dt", repr(dt), "--skin", repr(skin)]
+    if not resume:
+        t0 = time.perf_counter()
+        _run(cmd, work / "yade.log")
+        return probes, fill_end, time.perf_counter() - t0
+    summary = work / "yade_summary.json"
+    cmd += ["--checkpoint-every", repr(YADE_CHECKPOINT_SECONDS), "--summary", summary]
+    log = work / "yade.log"
+    # every piece's log is kept (yade.log.1, .2, ...)
+    n = 1
+    while log.with_name(f"yade.log.{n}").exists():
+        n += 1
+    _run(cmd, log.with_name(f"yade.log.{n}"))
+    shutil.copyfile(log.with_name(f"yade.log.{n}"), log)
+    return probes, fill_end, json.loads(summary.read_text())["elapsed_s"]

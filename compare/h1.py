@@ -39,9 +39,9 @@ def _reference_figures(rows, fill_end_csv, fill_end, mass):
     return g
 
 
-def _run_talus(setup, convention, work, result, series_out):
+def _run_talus(setup, convention, work, result, series_out, reuse=False):
     """Run talus in a convention; record its figures and series as `talus[convention]`."""
-    probes, summ = engines.run_talus_h1(setup, convention, work)
+    probes, summ = engines.run_talus_h1(setup, convention, work, reuse=reuse)
     rows = read_probes(probes)
     f = h1_figures(rows, summ["fill_end_time_s"], summ["total_mass_kg"])
     f.update({"fill_end_wall_force_z_n": summ["fill_end_wall_force_z_n"],
@@ -53,9 +53,11 @@ def _run_talus(setup, convention, work, result, series_out):
     return summ
 
 
-def compare_h1(setup, engs, out):
+def compare_h1(setup, engs, out, resume=False):
     """talus in each reference's convention against that reference, all from the same cloud.
-    The reference runs fill for as long as talus's fill did (its kinetic-energy rule)."""
+    The reference runs fill for as long as talus's fill did (its kinetic-energy rule).
+    With `resume`, finished talus and LIGGGHTS runs in `out` are reused, and YADE
+    checkpoints itself and continues an unfinished run in `out`/yade (engines.run_yade_h1)."""
     nums = _case_numbers(setup)
     result = {"setup": setup, "engines": {}, "pairs": [], "failures": []}
     series_out = {}
@@ -63,12 +65,14 @@ def compare_h1(setup, engs, out):
         if ref not in engs:
             continue
         tname = f"talus[{ref}]"
-        summ = _run_talus(setup, ref, out / f"talus-{ref}", result, series_out)
+        summ = _run_talus(setup, ref, out / f"talus-{ref}", result, series_out, reuse=resume)
         mass, fill_end = summ["total_mass_kg"], summ["fill_end_time_s"]
         if ref == "liggghts":
-            rp, rf, _ = engines.run_liggghts_h1(setup, out / ref, fill_end, nums["discharge"], summ["timestep_s"], nums["skin"])
+            rp, rf, _ = engines.run_liggghts_h1(setup, out / ref, fill_end, nums["discharge"], summ["timestep_s"], nums["skin"],
+                                                reuse=resume)
         else:
-            rp, rf, _ = engines.run_yade_h1(setup, out / ref, fill_end, nums["discharge"], summ["timestep_s"], nums["skin"])
+            rp, rf, _ = engines.run_yade_h1(setup, out / ref, fill_end, nums["discharge"], summ["timestep_s"], nums["skin"],
+                                            resume=resume)
         rows_r = read_probes(rp)
         result["engines"][ref] = _reference_figures(rows_r, rf, fill_end, mass)
         series_out[ref] = rows_r
@@ -76,7 +80,7 @@ def compare_h1(setup, engs, out):
     if not result["pairs"]:
         if "talus" not in engs:
             raise engines.EngineError("H1 needs talus among the engines")
-        _run_talus(setup, "talus", out / "talus", result, series_out)
+        _run_talus(setup, "talus", out / "talus", result, series_out, reuse=resume)
     weight = result["total_weight_n"]
     d = nums["r_min"] + nums["r_max"]  # mean diameter
     rho_b = tolerances.BULK_FRACTION * nums["density"]

@@ -8,6 +8,10 @@
 #   yade -n -j 1 -x yade_cases/H1.py --cloud /tmp/h1cloud.csv --out /tmp/h1_yade.csv \
 #        --out-fill-end /tmp/h1_yade_fill_end.csv --fill-time 0.66 --discharge-time 1.5
 #
+# Add --checkpoint-every 600 for a run that can be killed and resumed: the same command again
+# continues from the last checkpoint and ends with the same files, byte for byte (README,
+# "Checkpoints and resume").
+#
 # See yade_cases/README.md ("H1.py") for every option, the columns, the timing convention
 # and the YADE quirks met here.
 #
@@ -20,8 +24,10 @@
 
 import argparse
 import csv
+import hashlib
 import json
 import math
+import os
 import sys
 import time
 
@@ -75,7 +81,38 @@ def parse_args(argv):
                    help="surface (default): torque about the origin with the contact point on the wall surface "
                         "(as talus and LIGGGHTS); yade: O.forces.t + pos x f (YADE's contact point, mid-overlap)")
     p.add_argument("--summary", default=None, help="also write the JSON summary to this file")
+    p.add_argument("--checkpoint-every", type=float, default=0.0, metavar="SECONDS",
+                   help="resumable run: save the whole state (O.save) at the first checkpoint step after every "
+                        "SECONDS of wall time, next to --out (OUT.ckpt.json and OUT.ckpt.ITER.bin.gz); a later run "
+                        "with the same arguments continues from it. 0 (default): no checkpoints, no resume")
+    p.add_argument("--checkpoint-steps", type=int, default=None, metavar="N",
+                   help="checkpoint steps: every N steps (default: 10 probe intervals). At each one the state makes "
+                        "a save/load round trip (in memory, or through the checkpoint file), so that a run resumed "
+                        "from any checkpoint is bit-identical to a run that was never stopped")
+    p.add_argument("--restart", action="store_true",
+                   help="with --checkpoint-every: ignore (and replace) an existing checkpoint of --out and start afresh")
     return p.parse_args(argv)
+
+
+# arguments that do not change the run (they may differ between the pieces of a resumed run)
+NOT_CHECKED = ("checkpoint_every", "restart", "thermo_time", "summary")
+
+
+def sha256_of(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def write_json_atomic(path, obj):
+    tmp = path + ".tmp"
+    with open(tmp, "w") as fh:
+        json.dump(obj, fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
 
 
 def read_cloud(path):
@@ -128,12 +165,60 @@ def main(argv):
         raise SystemExit("--interval must be at least one step")
     if win_steps < 1:
         raise SystemExit("--fill-window must be at least one step")
+    ck_steps = a.checkpoint_steps if a.checkpoint_steps is not None else 10 * out_every
+    if ck_steps < 1:
+        raise SystemExit("--checkpoint-steps must be at least 1")
     total_steps = fill_steps + discharge_steps
     # steps averaged: fill_steps-win_steps+1 .. fill_steps (step 0 included if the fill is shorter)
     win_first = max(0, fill_steps - win_steps + 1)
     win_used = fill_steps - win_first + 1
     gz = a.gate_z
     g_vec = Vector3(0.0, 0.0, -a.gravity)
+
+    # ---- checkpoint (--checkpoint-every): OUT.ckpt.json (arguments, O.iter, the state file's
+    # name, the probe CSV's length, the driver's own state) and OUT.ckpt.ITER.bin.gz (O.save)
+    ckpt = a.checkpoint_every > 0
+    ck_json = a.out + ".ckpt.json"
+    ck_dir = os.path.dirname(os.path.abspath(ck_json))
+    ck_prefix = os.path.basename(a.out) + ".ckpt."
+    run_args = {k: v for k, v in sorted(vars(a).items()) if k not in NOT_CHECKED}
+    run_args["checkpoint_steps"] = ck_steps
+    run_args["cloud_sha256"] = sha256_of(a.cloud)
+
+    def state_files():
+        return sorted(os.path.join(ck_dir, f) for f in os.listdir(ck_dir)
+                      if f.startswith(ck_prefix) and f.endswith(".bin.gz"))
+
+    def remove_checkpoint(keep=None):
+        for f in state_files():
+            if f != keep:
+                os.remove(f)
+
+    meta = None
+    if os.path.exists(ck_json):
+        if ckpt and not a.restart:
+            with open(ck_json) as fh:
+                meta = json.load(fh)
+            old_args = meta.get("args", {})
+            for k in sorted(set(old_args) | set(run_args)):
+                if old_args.get(k) != run_args.get(k):
+                    name = "the cloud's content (sha256)" if k == "cloud_sha256" else "--" + k.replace("_", "-")
+                    raise SystemExit("H1.py: the checkpoint %s was made with %s = %r, this run has %r: pass the same "
+                                     "arguments to resume it, or --restart to start afresh"
+                                     % (ck_json, name, old_args.get(k), run_args.get(k)))
+            if meta.get("finished"):
+                if a.summary and meta.get("summary") is not None:
+                    with open(a.summary, "w") as fh:
+                        fh.write(json.dumps(meta["summary"], sort_keys=True, indent=1) + "\n")
+                print("H1: this run finished already (%s: step %d); nothing to do (--restart runs it again)"
+                      % (ck_json, meta["iter"]))
+                sys.stdout.flush()
+                return
+        else:
+            # a fresh run writes --out anew: the old checkpoint no longer matches it
+            print("H1: removing the checkpoint of an earlier run (%s)" % ck_json)
+            os.remove(ck_json)
+            remove_checkpoint()
 
     cloud = read_cloud(a.cloud)
 
@@ -212,9 +297,48 @@ def main(argv):
         "t0": time.time(), "t_last": time.time(), "it_last": 0,
         "double_max": 0, "double_rows": 0, "double_at_fill_end": None, "initial_contacts": None,
         "force_check": 0.0,
+        "pieces": [0],  # O.iter at the start of each piece of a resumed run
     }
-    out = open(a.out, "w")
-    out.write(HEADER + "\n")
+    # the driver's own state saved with a checkpoint (the rest of st is timing)
+    SAVED = ("gate", "acc", "acc_n", "fill_end", "rows", "double_max", "double_rows", "double_at_fill_end",
+             "initial_contacts", "force_check", "pieces")
+    elapsed_before = 0.0
+    if meta is None:
+        out = open(a.out, "w")
+        out.write(HEADER + "\n")
+        out.flush()
+    else:
+        # ---- resume: the scene as saved (bodies, interactions, engines, O.iter, O.time) ----
+        state = os.path.join(ck_dir, meta["state"])
+        if not os.path.exists(state):
+            raise SystemExit("H1.py: %s names %s, which is missing: cannot resume; --restart starts afresh"
+                             % (ck_json, state))
+        O.load(state)
+        if O.iter != meta["iter"]:
+            raise SystemExit("H1.py: %s holds step %d, the checkpoint says %d" % (state, O.iter, meta["iter"]))
+        for k in SAVED:
+            st[k] = meta["st"][k]
+        st["rows"] = [tuple(r) for r in st["rows"]]
+        st["pieces"].append(O.iter)
+        elapsed_before = meta["elapsed_s"]
+        # the probe CSV back to the rows written before the checkpoint (a killed piece
+        # may have written more)
+        if not os.path.exists(a.out) or os.path.getsize(a.out) < meta["csv_bytes"]:
+            raise SystemExit("H1.py: %s is shorter than at the checkpoint (%d bytes): cannot resume; --restart "
+                             "starts afresh" % (a.out, meta["csv_bytes"]))
+        with open(a.out, "r+b") as fh:
+            fh.truncate(meta["csv_bytes"])
+            fh.seek(0)
+            n_lines = fh.read().count(b"\n")
+        if n_lines != len(st["rows"]) + 1:
+            raise SystemExit("H1.py: %s has %d rows at the checkpoint's length, the checkpoint %d"
+                             % (a.out, n_lines - 1, len(st["rows"])))
+        out = open(a.out, "a")
+        collider = [e for e in O.engines if isinstance(e, InsertionSortCollider)][0]
+        print("H1: resuming from %s at step %d (t = %.6g s, %d probe rows kept)"
+              % (state, O.iter, O.time, len(st["rows"])))
+    st["t0"] = time.time() - elapsed_before
+    st["t_last"], st["it_last"] = time.time(), O.iter
 
     def wall_forces():
         """Force of the particles ON each wall: sums of O.forces.f over the wall's bodies."""
@@ -359,17 +483,18 @@ def main(argv):
     import __main__
     __main__._h1_hook = hook
 
-    O.engines = [
-        ForceResetter(),
-        collider,
-        InteractionLoop(
-            [Ig2_Sphere_Sphere_ScGeom(), ig_wall, ig_facet],
-            [Ip2_FrictMat_FrictMat_MindlinPhys(en=a.restitution, es=a.restitution)],
-            [Law2_ScGeom_MindlinPhys_Mindlin()],
-        ),
-        PyRunner(command="_h1_hook()", iterPeriod=1, initRun=True, label="h1_hook"),
-        NewtonIntegrator(damping=0.0, gravity=g_vec),
-    ]
+    if meta is None:
+        O.engines = [
+            ForceResetter(),
+            collider,
+            InteractionLoop(
+                [Ig2_Sphere_Sphere_ScGeom(), ig_wall, ig_facet],
+                [Ip2_FrictMat_FrictMat_MindlinPhys(en=a.restitution, es=a.restitution)],
+                [Law2_ScGeom_MindlinPhys_Mindlin()],
+            ),
+            PyRunner(command="_h1_hook()", iterPeriod=1, initRun=True, label="h1_hook"),
+            NewtonIntegrator(damping=0.0, gravity=g_vec),
+        ]
 
     print("H1: %d spheres (ids match talus: %s), total mass %.6g kg, fill %d steps, discharge %d steps, "
           "probe every %d steps, fill-end window %d steps, dt %r, verletDist %g m"
@@ -377,17 +502,61 @@ def main(argv):
              collider.verletDist))
     sys.stdout.flush()
 
+    ck_last = [time.time()]
+
+    def save_checkpoint():
+        """O.save to a temporary name, then os.replace; then the JSON (os.replace), which
+        names the state file; then the older state files go."""
+        out.flush()
+        os.fsync(out.fileno())
+        state = os.path.join(ck_dir, "%s%d.bin.gz" % (ck_prefix, O.iter))
+        tmp = os.path.join(ck_dir, ck_prefix + "tmp.bin.gz")  # YADE picks the format by the suffix
+        O.save(tmp)
+        os.replace(tmp, state)
+        saved = {k: st[k] for k in SAVED}
+        write_json_atomic(ck_json, {
+            "args": run_args, "finished": False, "iter": O.iter, "time": O.time, "state": os.path.basename(state),
+            "csv_bytes": out.tell(), "elapsed_s": time.time() - st["t0"], "st": saved})
+        remove_checkpoint(keep=state)
+        return state
+
+    def at_checkpoint_step():
+        """Every ck_steps steps (between two O.run calls, a clean step boundary): the state
+        makes a save/load round trip, through the checkpoint file when one is due, else in
+        memory. O.load does not give back every detail of the running scene (the collider
+        re-sorts its bounds, only real interactions are saved), so the run that was never
+        stopped takes the same round trips as a resumed one and both continue from the same
+        loaded state: bit-identical rows."""
+        if time.time() - ck_last[0] >= a.checkpoint_every:
+            t = time.time()
+            state = save_checkpoint()
+            O.load(state)
+            ck_last[0] = time.time()
+            print("H1: checkpoint at step %d: %s (%.1f s)" % (O.iter, state, ck_last[0] - t))
+            sys.stdout.flush()
+        else:
+            O.saveTmp("h1")
+            O.loadTmp("h1")
+
+    def advance(end):
+        """Run until O.iter == end, stopping at every checkpoint step on the way."""
+        while O.iter < end:
+            stop = min(end, (O.iter // ck_steps + 1) * ck_steps) if ckpt else end
+            O.run(stop - O.iter, True)
+            if ckpt and O.iter % ck_steps == 0:
+                at_checkpoint_step()
+
     # fill: force evaluations at steps 0 .. fill_steps, all with the gate (the row and the
     # fill-end window at step fill_steps include the gate, as in LIGGGHTS); the leapfrog
     # update after the evaluation at fill_steps still carries the gate force
-    O.run(fill_steps + 1, True)
-    if st["initial_contacts"]:
+    advance(fill_steps + 1)
+    if st["initial_contacts"] and st["pieces"][-1] == 0:
         print("H1 warning: %d contacts at step 0 (the verlet start assumes none)" % st["initial_contacts"])
     # gate removal: evaluations at steps fill_steps+1 .. total_steps have no gate
-    O.bodies.erase(gate_id)
-    st["gate"] = False
-    if discharge_steps > 0:
-        O.run(discharge_steps, True)
+    if st["gate"]:
+        O.bodies.erase(gate_id)
+        st["gate"] = False
+    advance(total_steps + 1)
     out.close()
     elapsed = time.time() - st["t0"]
 
@@ -410,6 +579,9 @@ def main(argv):
         "verlet_dist_m": collider.verletDist,
         "command": " ".join(["H1.py"] + list(argv)),
     }
+    if ckpt:
+        summary["checkpoint_steps"] = ck_steps
+        summary["resumed_at_steps"] = st["pieces"][1:]
     if fe is not None:
         down_h, down_g = -fe[2], -fe[5]
         summary.update({"fill_end_time_s": t_gate, "fill_end_hopper_down_n": down_h, "fill_end_gate_down_n": down_g,
@@ -419,6 +591,11 @@ def main(argv):
     if a.summary:
         with open(a.summary, "w") as fh:
             fh.write(json.dumps(summary, sort_keys=True, indent=1) + "\n")
+    if ckpt:
+        # finished: a later run with the same arguments does nothing (--restart runs again)
+        write_json_atomic(ck_json, {"args": run_args, "finished": True, "iter": O.iter, "time": O.time,
+                                    "summary": summary})
+        remove_checkpoint()
 
 
 main(sys.argv[1:])
