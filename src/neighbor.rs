@@ -170,11 +170,43 @@ pub struct NeighborList {
     /// the list sees each particle at `Particles::list_pos`.
     #[serde(skip)]
     pub period: Vec3,
+    /// The particles' ids at the last build: the next build on one rank
+    /// carries the contact history from the list itself ([`Carry::Own`]).
+    #[serde(skip)]
+    pub ids: Vec<u64>,
+    /// The arrays of the build before the last (work space): a build writes
+    /// its rows into these, reading the history from the last build's.
+    #[serde(skip)]
+    pub spare: Spare,
     /// Positions at the last build (as the list saw them).
     pub x_ref: Vec<Vec3>,
     /// Largest distance any wall has moved since the last build (m).
     pub wall_moved: f64,
     pub builds: u64,
+}
+
+/// Where a build takes the contact history from.
+#[derive(Clone, Copy, Debug)]
+pub enum Carry<'a> {
+    /// Keyed by global ids, sorted by key (several ranks; a restart).
+    Keyed(&'a History),
+    /// The list's own, from the last build (one rank): pair by pair along
+    /// the rows where the particles are those of the last build in the same
+    /// storage order, else read out by the ids they had then.
+    Own,
+}
+
+/// A list's arrays kept from the build before the last (see `NeighborList::spare`).
+#[derive(Clone, Debug, Default)]
+pub struct Spare {
+    pairs: Vec<(u32, u32)>,
+    hist: Vec<Vec3>,
+    roll: Vec<Vec3>,
+    row_start: Vec<u32>,
+    wall_start: Vec<u32>,
+    wall_feat: Vec<(u16, u32)>,
+    wall_hist: Vec<Vec3>,
+    wall_roll: Vec<Vec3>,
 }
 
 /// One flag a particle, set by any thread of the force sweep and read after it.
@@ -255,7 +287,13 @@ impl NeighborList {
 
     /// The non-zero contact history keyed by global ids, sorted by key.
     pub fn take_history(&self, p: &Particles) -> History {
-        self.history_in_id_order(p, false).unwrap_or_else(|| self.history_sorted(p))
+        self.history_of(&p.id, false)
+    }
+
+    /// The non-zero contact history keyed by the ids `ids` of the list's
+    /// particles (in storage order), sorted by key.
+    fn history_of(&self, ids: &[u64], threaded: bool) -> History {
+        self.history_in_id_order(ids, threaded).unwrap_or_else(|| self.history_sorted(ids))
     }
 
     /// As [`NeighborList::take_history`], read row by row in order of the
@@ -263,12 +301,13 @@ impl NeighborList {
     /// pairs as the lower id, in order of partner id): one pass, on the
     /// caller's pool's threads where `threaded` (blocks of particles joined in
     /// order: the same entries). `None` where an id can be held twice (a
-    /// periodic image) or the list is not of these particles.
-    pub fn history_in_id_order(&self, p: &Particles, threaded: bool) -> Option<History> {
-        if !p.image.is_empty() || self.row_start.len() != p.len() + 1 || self.wall_start.len() > p.len() + 1 {
+    /// periodic image) or the list is not of these particles (`ids`: the
+    /// particles' ids in storage order).
+    pub fn history_in_id_order(&self, ids: &[u64], threaded: bool) -> Option<History> {
+        if self.row_start.len() != ids.len() + 1 || self.wall_start.len() > ids.len() + 1 {
             return None;
         }
-        let order = IdIndex::new(p).into_order()?;
+        let order = IdIndex::new(ids).into_order()?;
         let threaded = threaded && order.len() > 2 * ROW_BLOCK;
         let pair_rows = |range: std::ops::Range<usize>, out: &mut Vec<((u64, u64), Hist)>| {
             for &a in &order[range] {
@@ -276,7 +315,7 @@ impl NeighborList {
                 for k in self.row_start[a] as usize..self.row_start[a + 1] as usize {
                     let e = self.pair_entry(k);
                     if !e.is_zero() {
-                        out.push(((p.id[a], p.id[self.pairs[k].1 as usize]), e));
+                        out.push(((ids[a], ids[self.pairs[k].1 as usize]), e));
                     }
                 }
             }
@@ -292,7 +331,7 @@ impl NeighborList {
                     let e = self.wall_entry(k);
                     if !e.is_zero() {
                         let (w, f) = self.wall_feat[k];
-                        out.push(((p.id[i], w, f), e));
+                        out.push(((ids[i], w, f), e));
                     }
                 }
             }
@@ -308,22 +347,22 @@ impl NeighborList {
         Some(h)
     }
 
-    /// [`NeighborList::take_history`] in list order, then sorted.
-    fn history_sorted(&self, p: &Particles) -> History {
+    /// [`NeighborList::history_of`] in list order, then sorted.
+    fn history_sorted(&self, ids: &[u64]) -> History {
         let mut h = History::default();
         for (k, &(a, b)) in self.pairs.iter().enumerate() {
             let e = self.pair_entry(k);
             if !e.is_zero() {
-                h.pairs.push(((p.id[a as usize], p.id[b as usize]), e));
+                h.pairs.push(((ids[a as usize], ids[b as usize]), e));
             }
         }
         sort_by_key_runs(&mut h.pairs, |k| k.0);
-        for i in 0..self.wall_start.len().saturating_sub(1).min(p.len()) {
+        for i in 0..self.wall_start.len().saturating_sub(1).min(ids.len()) {
             for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
                 let e = self.wall_entry(k);
                 if !e.is_zero() {
                     let (w, f) = self.wall_feat[k];
-                    h.walls.push(((p.id[i], w, f), e));
+                    h.walls.push(((ids[i], w, f), e));
                 }
             }
         }
@@ -346,18 +385,32 @@ impl NeighborList {
     /// Rebuild the lists, carrying contact history over by global ids.
     pub fn build(&mut self, p: &Particles, walls: &[Wall]) {
         let h = self.take_history(p);
-        self.build_with(p, walls, &h);
+        self.build_with(p, walls, Carry::Keyed(&h));
     }
 
     /// Rebuild the lists from particle positions, taking contact history from
-    /// `hist` (sorted by key). Pairs: every pair within reach of which at least
-    /// one particle is owned (ghosts are the particles after `p.owned()`); wall
-    /// candidates: owned particles only.
-    pub fn build_with(&mut self, p: &Particles, walls: &[Wall], hist: &History) {
+    /// `carry`. Pairs: every pair within reach of which at least one particle
+    /// is owned (ghosts are the particles after `p.owned()`); wall candidates:
+    /// owned particles only.
+    pub fn build_with(&mut self, p: &Particles, walls: &[Wall], carry: Carry) {
         let grid = CellGrid::new(p, self.skin, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
-        self.build_pairs(p, &grid, &hist.pairs);
+        // the last build's rows are read pair by pair where they are of the
+        // same particles in the same places (no periodic images)
+        let along_rows = matches!(carry, Carry::Own) && self.ids == p.id && p.image.is_empty();
+        let read;
+        let hist = match carry {
+            Carry::Keyed(h) => Some(h),
+            Carry::Own if along_rows => None,
+            Carry::Own => {
+                read = self.history_of(&self.ids, self.threaded);
+                Some(&read)
+            }
+        };
+        self.build_pairs(p, &grid, hist.map(|h| &h.pairs[..]));
         self.build_incident(p);
-        self.build_wall_candidates(p, walls, &hist.walls);
+        self.build_wall_candidates(p, walls, hist.map(|h| &h.walls[..]));
+        self.ids.clear();
+        self.ids.extend_from_slice(&p.id);
         self.x_ref.clear();
         self.x_ref.extend((0..p.owned()).map(|i| p.list_pos(i, &self.period)));
         self.wall_moved = 0.0;
@@ -373,7 +426,7 @@ impl NeighborList {
     /// several threads, blocks of the grid are searched at once and blocks of
     /// rows are made at once, each into its own part of the arrays: the same
     /// list as on one.
-    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: &[((u64, u64), Hist)]) {
+    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: Option<&[((u64, u64), Hist)]>) {
         let n = p.len();
         let rolling = self.rolling_history;
         let threaded = self.threaded && n > 2 * ROW_BLOCK;
@@ -395,7 +448,7 @@ impl NeighborList {
         // counting sort by row owner: `keyed[seg[a]..seg[a + 1]]` holds a's
         // partners as (partner id, partner), sorted within each row later;
         // one list pair per pair found, so these are the list's row starts
-        let mut seg = std::mem::take(&mut self.row_start);
+        let mut seg = std::mem::take(&mut self.spare.row_start);
         seg.clear();
         seg.resize(n + 1, 0);
         for f in &found {
@@ -425,17 +478,24 @@ impl NeighborList {
         // one list pair per pair found: particle a's row is `seg[a]..seg[a + 1]`
         // of every array, written in place (by blocks of rows on several threads)
         let total = seg[n] as usize;
-        let mut pairs = std::mem::take(&mut self.pairs);
-        let mut hist = std::mem::take(&mut self.pair_hist);
-        let mut roll = std::mem::take(&mut self.pair_roll);
+        // written into the spare arrays: the last build's are read for history
+        let mut pairs = std::mem::take(&mut self.spare.pairs);
+        let mut hist = std::mem::take(&mut self.spare.hist);
+        let mut roll = std::mem::take(&mut self.spare.roll);
         let mut inertia = std::mem::take(&mut self.pair_inertia);
         let zero_inertia = PairInertia { r_eff: 0.0, m_eff: 0.0, sqrt_m_eff: 0.0 };
         fill_with(&mut pairs, total, (0, 0), threaded);
         fill_with(&mut hist, total, Vec3::zeros(), threaded);
         fill_with(&mut roll, if rolling { total } else { 0 }, Vec3::zeros(), threaded);
         fill_with(&mut inertia, total, zero_inertia, threaded);
-        let first = history_runs(p, old_pair);
-        let old = OldPairs { pairs: old_pair, first: &first };
+        let first;
+        let old = match old_pair {
+            Some(pairs) => {
+                first = history_runs(p, pairs);
+                OldPairs::Keyed { pairs, first: &first }
+            }
+            None => OldPairs::Rows { start: &self.row_start, pairs: &self.pairs, hist: &self.pair_hist, roll: &self.pair_roll },
+        };
         if !threaded {
             let mut rows = Rows { pairs: &mut pairs, hist: &mut hist, roll: &mut roll, inertia: &mut inertia };
             rows.make(p, &seg, &mut keyed, &old, 0..n);
@@ -454,11 +514,12 @@ impl NeighborList {
                 .collect();
             blocks.into_par_iter().for_each(|(range, keyed, mut rows)| rows.make(p, seg, keyed, &old, range));
         }
-        self.pairs = pairs;
-        self.pair_hist = hist;
-        self.pair_roll = roll;
+        // the last build's arrays are the next one's spare ones
+        self.spare.pairs = std::mem::replace(&mut self.pairs, pairs);
+        self.spare.hist = std::mem::replace(&mut self.pair_hist, hist);
+        self.spare.roll = std::mem::replace(&mut self.pair_roll, roll);
+        self.spare.row_start = std::mem::replace(&mut self.row_start, seg);
         self.pair_inertia = inertia;
-        self.row_start = seg;
         self.row_keyed = keyed;
     }
 
@@ -521,19 +582,26 @@ impl NeighborList {
     /// each with its history from `old_wall` (sorted by key) and its R*, m*.
     /// On several threads, blocks of particles at once, joined in order: the
     /// same candidates as on one.
-    fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: &[((u64, u16, u32), Hist)]) {
+    fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: Option<&[((u64, u16, u32), Hist)]>) {
         let n_own = p.owned();
+        // written into the spare arrays: the last build's are read for history
         let mut all = WallRows {
-            start: std::mem::take(&mut self.wall_start),
-            feat: std::mem::take(&mut self.wall_feat),
-            hist: std::mem::take(&mut self.wall_hist),
-            roll: std::mem::take(&mut self.wall_roll),
+            start: std::mem::take(&mut self.spare.wall_start),
+            feat: std::mem::take(&mut self.spare.wall_feat),
+            hist: std::mem::take(&mut self.spare.wall_hist),
+            roll: std::mem::take(&mut self.spare.wall_roll),
             inertia: std::mem::take(&mut self.wall_inertia),
             owners: std::mem::take(&mut self.wall_owners),
             image: std::mem::take(&mut self.wall_image),
         };
         all.clear();
-        let find = WallFind { p, walls, old_wall, skin: self.skin, period: self.period, rolling: self.rolling_history };
+        let old = match old_wall {
+            Some(keyed) => OldWalls::Keyed(keyed),
+            None => {
+                OldWalls::Rows { start: &self.wall_start, feat: &self.wall_feat, hist: &self.wall_hist, roll: &self.wall_roll }
+            }
+        };
+        let find = WallFind { p, walls, old, skin: self.skin, period: self.period, rolling: self.rolling_history };
         if !self.threaded || n_own <= 2 * ROW_BLOCK {
             find.append(&mut all, 0..n_own);
         } else {
@@ -556,10 +624,11 @@ impl NeighborList {
             }
         }
         all.start.push(all.feat.len() as u32);
-        self.wall_start = all.start;
-        self.wall_feat = all.feat;
-        self.wall_hist = all.hist;
-        self.wall_roll = all.roll;
+        // the last build's arrays are the next one's spare ones
+        self.spare.wall_start = std::mem::replace(&mut self.wall_start, all.start);
+        self.spare.wall_feat = std::mem::replace(&mut self.wall_feat, all.feat);
+        self.spare.wall_hist = std::mem::replace(&mut self.wall_hist, all.hist);
+        self.spare.wall_roll = std::mem::replace(&mut self.wall_roll, all.roll);
         self.wall_inertia = all.inertia;
         self.wall_owners = all.owners;
         self.wall_image = all.image;
@@ -596,7 +665,7 @@ impl WallRows {
 struct WallFind<'a> {
     p: &'a Particles,
     walls: &'a [Wall],
-    old_wall: &'a [((u64, u16, u32), Hist)],
+    old: OldWalls<'a>,
     skin: f64,
     period: Vec3,
     rolling: bool,
@@ -605,7 +674,7 @@ struct WallFind<'a> {
 impl WallFind<'_> {
     /// Append the candidates of the owned particles `range` to `out`.
     fn append(&self, out: &mut WallRows, range: std::ops::Range<usize>) {
-        let (p, old_wall) = (self.p, self.old_wall);
+        let p = self.p;
         let base = out.feat.len();
         let mut feats = Vec::new();
         // in a periodic domain a wall also meets the particles' images (a
@@ -639,8 +708,7 @@ impl WallFind<'_> {
                     for &f in &feats {
                         out.inertia.push(pi);
                         out.feat.push((w as u16, f));
-                        let key = (p.id[i], w as u16, f);
-                        let h = old_wall.binary_search_by_key(&key, |x| x.0).map(|k| old_wall[k].1).unwrap_or(Hist::ZERO);
+                        let h = self.old.find(p.id[i], i, w as u16, f);
                         out.hist.push(h.shear);
                         if self.rolling {
                             out.roll.push(h.roll);
@@ -650,6 +718,44 @@ impl WallFind<'_> {
             }
             if out.feat.len() > before {
                 out.owners.push(i as u32);
+            }
+        }
+    }
+}
+
+/// The wall history of the last build, where a new candidate finds its own.
+enum OldWalls<'a> {
+    /// Keyed by (id, wall, feature) and sorted.
+    Keyed(&'a [((u64, u16, u32), Hist)]),
+    /// The last build's candidates, of the same particles in the same places.
+    Rows { start: &'a [u32], feat: &'a [(u16, u32)], hist: &'a [Vec3], roll: &'a [Vec3] },
+}
+
+impl OldWalls<'_> {
+    /// The history of particle i's (of id `id`) contact with feature `f` of
+    /// wall `w`: zero where there is none.
+    #[inline(always)]
+    fn find(&self, id: u64, i: usize, w: u16, f: u32) -> Hist {
+        match self {
+            OldWalls::Keyed(old) => old.binary_search_by_key(&(id, w, f), |x| x.0).map(|k| old[k].1).unwrap_or(Hist::ZERO),
+            OldWalls::Rows { start, feat, hist, roll } => {
+                if i + 1 >= start.len() {
+                    return Hist::ZERO;
+                }
+                let places = start[i] as usize..start[i + 1] as usize;
+                match feat[places.clone()].iter().position(|&x| x == (w, f)) {
+                    Some(j) => {
+                        let k = places.start + j;
+                        let h = Hist { shear: hist[k], roll: roll.get(k).copied().unwrap_or_else(Vec3::zeros) };
+                        // as read out by ids: a zero history is no history
+                        if h.is_zero() {
+                            Hist::ZERO
+                        } else {
+                            h
+                        }
+                    }
+                    None => Hist::ZERO,
+                }
             }
         }
     }
@@ -688,12 +794,63 @@ pub fn sort_by_key_runs<K: Ord + Copy, V: Copy>(v: &mut Vec<(K, V)>, particle: i
     *v = out;
 }
 
-/// The contact history of the last build, sorted by ids, and where each
-/// particle's run of it starts (`first[a]`: the first entry whose lower id is
-/// particle a's; the end of the history if there is none).
-struct OldPairs<'a> {
-    pairs: &'a [((u64, u64), Hist)],
-    first: &'a [u32],
+/// The contact history of the last build, where a new row's pairs find theirs.
+enum OldPairs<'a> {
+    /// Keyed by ids and sorted, and where each particle's run of it starts
+    /// (`first[a]`: the first entry whose lower id is particle a's; the end of
+    /// the history if there is none).
+    Keyed { pairs: &'a [((u64, u64), Hist)], first: &'a [u32] },
+    /// The last build's rows, of the same particles in the same places.
+    Rows { start: &'a [u32], pairs: &'a [(u32, u32)], hist: &'a [Vec3], roll: &'a [Vec3] },
+}
+
+impl OldPairs<'_> {
+    /// Particle a's old pairs: the places `cursor..end` to look in.
+    #[inline(always)]
+    fn run(&self, a: usize) -> (usize, usize) {
+        match self {
+            OldPairs::Keyed { pairs, first } => (first[a] as usize, pairs.len()),
+            OldPairs::Rows { start, .. } => (start[a] as usize, start[a + 1] as usize),
+        }
+    }
+
+    /// The history of the pair of particle ids (ida, idb), looked for from
+    /// `cursor` on (a row's pairs come in order of partner id, so the cursor
+    /// only moves on): zero where there is none.
+    #[inline(always)]
+    fn find(&self, ids: &[u64], cursor: &mut usize, end: usize, ida: u64, idb: u64) -> Hist {
+        match self {
+            OldPairs::Keyed { pairs, .. } => {
+                let key = (ida, idb);
+                while *cursor < end && pairs[*cursor].0 < key {
+                    *cursor += 1;
+                }
+                if *cursor < end && pairs[*cursor].0 == key {
+                    pairs[*cursor].1
+                } else {
+                    Hist::ZERO
+                }
+            }
+            OldPairs::Rows { pairs, hist, roll, .. } => {
+                while *cursor < end && ids[pairs[*cursor].1 as usize] < idb {
+                    *cursor += 1;
+                }
+                if *cursor < end && ids[pairs[*cursor].1 as usize] == idb {
+                    let k = *cursor;
+                    let h = Hist { shear: hist[k], roll: roll.get(k).copied().unwrap_or_else(Vec3::zeros) };
+                    // as read out by ids: a zero history is no history (a
+                    // -0 reads as +0)
+                    if h.is_zero() {
+                        Hist::ZERO
+                    } else {
+                        h
+                    }
+                } else {
+                    Hist::ZERO
+                }
+            }
+        }
+    }
 }
 
 /// Where each particle's run of the sorted history starts (`OldPairs::first`),
@@ -709,7 +866,7 @@ fn history_runs(p: &Particles, old_pair: &[((u64, u64), Hist)]) -> Vec<u32> {
     if old_pair.is_empty() {
         return first;
     }
-    let index = IdIndex::new(p);
+    let index = IdIndex::new(&p.id);
     let mut k = 0;
     while k < old_pair.len() {
         let ida = old_pair[k].0 .0;
@@ -748,22 +905,22 @@ pub(crate) struct IdIndex {
 }
 
 impl IdIndex {
-    pub(crate) fn new(p: &Particles) -> IdIndex {
-        let n = p.len();
-        let (Some(&lo), Some(&hi)) = (p.id.iter().min(), p.id.iter().max()) else {
+    pub(crate) fn new(ids: &[u64]) -> IdIndex {
+        let n = ids.len();
+        let (Some(&lo), Some(&hi)) = (ids.iter().min(), ids.iter().max()) else {
             return IdIndex { lo: 0, table: Vec::new(), sorted: Vec::new(), twice: false };
         };
         let mut twice = false;
         if hi - lo < 4 * n as u64 + 1024 {
             let mut table = vec![u32::MAX; (hi - lo + 1) as usize];
-            for (i, &id) in p.id.iter().enumerate() {
+            for (i, &id) in ids.iter().enumerate() {
                 let t = &mut table[(id - lo) as usize];
                 twice |= *t != u32::MAX;
                 *t = i as u32;
             }
             IdIndex { lo, table, sorted: Vec::new(), twice }
         } else {
-            let mut sorted: Vec<(u64, u32)> = p.id.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
+            let mut sorted: Vec<(u64, u32)> = ids.iter().enumerate().map(|(i, &id)| (id, i as u32)).collect();
             sorted.sort_unstable();
             twice = sorted.windows(2).any(|w| w[0].0 == w[1].0);
             IdIndex { lo, table: Vec::new(), sorted, twice }
@@ -840,7 +997,6 @@ impl Rows<'_> {
     /// and so are its places in `self`'s arrays): each row sorted by partner
     /// id, each pair with its history and R*, m*.
     fn make(&mut self, p: &Particles, seg: &[u32], part: &mut [(u64, u32)], old: &OldPairs, range: std::ops::Range<usize>) {
-        let old_pair = old.pairs;
         let rolling = !self.roll.is_empty();
         let off = seg[range.start] as usize;
         // in storage order: a pair's place in the list changes no result
@@ -850,8 +1006,8 @@ impl Rows<'_> {
             // history is in order of ids, the rows in storage order, so each
             // row's run would otherwise start with a miss of the cache
             #[cfg(target_arch = "x86_64")]
-            if a + HIST_PREFETCH < end {
-                let k = old.first[a + HIST_PREFETCH] as usize;
+            if let (OldPairs::Keyed { pairs: old_pair, first }, true) = (old, a + HIST_PREFETCH < end) {
+                let k = first[a + HIST_PREFETCH] as usize;
                 if k < old_pair.len() {
                     // SAFETY: a prefetch is only a hint, and the address is in bounds
                     unsafe {
@@ -869,14 +1025,10 @@ impl Rows<'_> {
             // and its periodic image, told apart by their places
             row.sort_unstable();
             let (ida, ra, ma) = (p.id[a], p.radius[a], p.mass[a]);
-            // a's old pairs are one run of the sorted history, in the row's order
-            let mut cursor = old.first[a] as usize;
+            // a's old pairs are one run, in the row's order
+            let (mut cursor, old_end) = old.run(a);
             for (k, &(idb, b)) in places.zip(row.iter()) {
-                let key = (ida, idb);
-                while cursor < old_pair.len() && old_pair[cursor].0 < key {
-                    cursor += 1;
-                }
-                let h = if cursor < old_pair.len() && old_pair[cursor].0 == key { old_pair[cursor].1 } else { Hist::ZERO };
+                let h = old.find(&p.id, &mut cursor, old_end, ida, idb);
                 self.pairs[k] = (a as u32, b);
                 self.hist[k] = h.shear;
                 if rolling {
@@ -1149,7 +1301,7 @@ pub fn particle_error(p: &Particles, i: usize, domain: &Domain) -> TalusError {
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_by_key_runs, NeighborList};
+    use super::{sort_by_key_runs, Carry, NeighborList};
     use crate::dim::Vec3;
     use crate::particles::{ParticleInit, Particles};
     use crate::walls::{Plane, Shape, Wall};
@@ -1190,20 +1342,92 @@ mod tests {
                     *h = Vec3::new(next(), next(), next());
                 }
             }
-            let want = nl.history_sorted(&p);
+            let want = nl.history_sorted(&p.id);
             assert!(want.pairs.windows(2).all(|w| w[0].0 < w[1].0) && want.walls.windows(2).all(|w| w[0].0 < w[1].0));
             assert!(want.pairs.len() > 5_000 && want.walls.len() > 200);
-            assert_eq!(nl.history_in_id_order(&p, false).as_ref(), Some(&want), "one thread, sparse ids {sparse}");
+            assert_eq!(nl.history_in_id_order(&p.id, false).as_ref(), Some(&want), "one thread, sparse ids {sparse}");
             assert_eq!(
-                pool.install(|| nl.history_in_id_order(&p, true)).as_ref(),
+                pool.install(|| nl.history_in_id_order(&p.id, true)).as_ref(),
                 Some(&want),
                 "two threads, sparse ids {sparse}"
             );
             assert_eq!(nl.take_history(&p), want);
             // and the list made again from it holds the same history
             let mut again = NeighborList::new(5e-4);
-            again.build_with(&p, &walls, &want);
-            assert_eq!(again.history_sorted(&p), want);
+            again.build_with(&p, &walls, Carry::Keyed(&want));
+            assert_eq!(again.history_sorted(&p.id), want);
+        }
+    }
+
+    /// A list that carries its own history (`Carry::Own`) builds the list that
+    /// the history read out by ids builds (`Carry::Keyed`), bit for bit: with
+    /// the particles in the same places (along the rows) and in another
+    /// storage order (read out by the ids of the last build); shear and
+    /// rolling histories, some of them -0.
+    #[test]
+    fn a_list_carrying_its_own_history_builds_the_list_the_keyed_history_builds() {
+        let mut seed = 4242u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let floor = Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, 0.004), normal: Vec3::z() }), 0);
+        let walls = [floor];
+        let bits = |v: &[Vec3]| v.iter().map(|x| x.map(f64::to_bits)).collect::<Vec<_>>();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        for (rolling, threaded) in [(false, false), (true, false), (false, true), (true, true)] {
+            let mut p = Particles::default();
+            for k in 0..9_000u64 {
+                let pos = Vec3::new(next() * 0.05, next() * 0.05, next() * 0.02);
+                p.push_sphere(
+                    &ParticleInit { id: (k * 7919) % 9_000, pos, vel: Vec3::zeros(), omega: Vec3::zeros(), radius: 1e-3 },
+                    2500.0,
+                    0,
+                );
+            }
+            let mut nl = NeighborList::new(5e-4);
+            nl.rolling_history = rolling;
+            nl.threaded = threaded;
+            nl.build(&p, &walls);
+            for v in [&mut nl.pair_hist, &mut nl.pair_roll, &mut nl.wall_hist, &mut nl.wall_roll] {
+                for h in v.iter_mut() {
+                    let r = next();
+                    *h = if r < 0.4 {
+                        Vec3::new(next(), next(), next())
+                    } else if r < 0.5 {
+                        Vec3::new(-0.0, 0.0, -0.0)
+                    } else {
+                        Vec3::zeros()
+                    };
+                }
+            }
+            // the particles move by up to a radius: pairs and wall contacts come and go
+            let before = nl.take_history(&p);
+            for x in p.pos.iter_mut() {
+                *x += Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 1e-3;
+            }
+            let mut shuffled = p.clone();
+            let mut perm: Vec<usize> = (0..p.len()).collect();
+            perm.reverse();
+            shuffled.permute(&perm);
+            for q in [&p, &shuffled] {
+                let (mut own, mut keyed) = (nl.clone(), nl.clone());
+                pool.install(|| {
+                    own.build_with(q, &walls, Carry::Own);
+                    keyed.build_with(q, &walls, Carry::Keyed(&before));
+                });
+                let same_places = std::ptr::eq(q, &p);
+                assert!(own.pairs.len() > 10_000 && own.wall_feat.len() > 500);
+                assert_eq!(own.pairs, keyed.pairs);
+                assert_eq!(bits(&own.pair_hist), bits(&keyed.pair_hist), "rolling {rolling}, same places {same_places}");
+                assert_eq!(bits(&own.pair_roll), bits(&keyed.pair_roll));
+                assert_eq!(own.wall_feat, keyed.wall_feat);
+                assert_eq!(bits(&own.wall_hist), bits(&keyed.wall_hist));
+                assert_eq!(bits(&own.wall_roll), bits(&keyed.wall_roll));
+                // some history came along
+                assert!(own.pair_hist.iter().filter(|h| **h != Vec3::zeros()).count() > 1_000);
+                assert!(own.wall_hist.iter().filter(|h| **h != Vec3::zeros()).count() > 50);
+            }
         }
     }
 

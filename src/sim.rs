@@ -26,7 +26,7 @@ use crate::forces::{compute_forces, SweepSettings};
 use crate::generate;
 use crate::integrate::{self, GearState, IntegratorKind};
 use crate::material::PairTable;
-use crate::neighbor::{Domain, History, NeighborList};
+use crate::neighbor::{Carry, Domain, History, NeighborList};
 use crate::fixed::{from_fixed, to_fixed};
 use crate::parallel::comm::Comm;
 use crate::parallel::decomp::{choose_grid, Decomposition};
@@ -175,7 +175,7 @@ impl Simulation {
         let mut hist = History::default();
         par.take_own(&mut p, &mut gear, &mut hist);
         let hist = par.migrate(&mut p, &mut gear, hist);
-        nl.build_with(&p, &walls, &hist);
+        nl.build_with(&p, &walls, Carry::Keyed(&hist));
         let state = State {
             p,
             walls,
@@ -434,7 +434,7 @@ impl Simulation {
         let hist = self.par.migrate(&mut st.p, &mut st.gear, hist);
         st.nl.rolling_history = self.state.nl.rolling_history;
         st.nl.period = self.state.nl.period;
-        st.nl.build_with(&st.p, &st.walls, &hist);
+        st.nl.build_with(&st.p, &st.walls, Carry::Keyed(&hist));
         self.state = st;
     }
 
@@ -522,6 +522,8 @@ impl Simulation {
                 self.next_reorder = st.step + self.case.parallel.reorder_interval;
             }
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
+            // one rank: the list carries its own history
+            let carry = h.as_ref().map_or(Carry::Own, Carry::Keyed);
             let migrated = t.elapsed().as_secs_f64();
             self.par.timers.migrate += migrated;
             self.par.timers.comm_s += migrated;
@@ -530,9 +532,9 @@ impl Simulation {
             st.nl.threaded = self.set.sweep.grain != usize::MAX;
             if st.nl.threaded {
                 let (nl, p, walls) = (&mut st.nl, &st.p, &st.walls);
-                self.pool.install(|| nl.build_with(p, walls, &h));
+                self.pool.install(|| nl.build_with(p, walls, carry));
             } else {
-                st.nl.build_with(&st.p, &st.walls, &h);
+                st.nl.build_with(&st.p, &st.walls, carry);
             }
             self.par.timers.list_build += t2.elapsed().as_secs_f64();
             self.par.rebalance_pending = false;

@@ -97,22 +97,16 @@ impl Parallel {
     /// At a list rebuild: migrate the particles whose owner changed with their
     /// Gear derivatives and the contact history that involves them (read from
     /// the current list by local index), then remake the ghosts. Returns the
-    /// history the new list must use.
-    pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> History {
+    /// history the new list must use, or `None` on one rank without ghosts:
+    /// the list then carries its history itself ([`crate::neighbor::Carry::Own`]).
+    pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> Option<History> {
         let (dest, mut out) = self.destinations(p);
-        // one rank keeps all of it: read in order of id, on the rank's threads
-        let alone = if self.size() == 1 && p.ghosts == 0 {
-            match &self.pool {
-                Some(pool) if nl.threaded => pool.install(|| nl.history_in_id_order(p, true)),
-                _ => nl.history_in_id_order(p, false),
-            }
-        } else {
-            None
-        };
-        let hist = alone.unwrap_or_else(|| self.route_history(p, nl, &dest, &mut out));
+        let alone = self.size() == 1 && p.ghosts == 0;
+        let hist = if alone { History::default() } else { self.route_history(p, nl, &dest, &mut out) };
         p.drop_ghosts();
         self.pack_leaving(p, gear, &dest, &mut out);
-        self.exchange_owned(p, gear, hist, out, &dest)
+        let hist = self.exchange_owned(p, gear, hist, out, &dest);
+        (!alone).then_some(hist)
     }
 
     /// The contact history of the list's pairs and wall candidates by ids:
@@ -151,7 +145,7 @@ impl Parallel {
         p.drop_ghosts();
         let (dest, mut out) = self.destinations(p);
         // an entry's particles looked up by id (each held once: no ghosts)
-        let index = crate::neighbor::IdIndex::new(p);
+        let index = crate::neighbor::IdIndex::new(&p.id);
         let to = |id: u64| index.get(id).map(|i| dest[i]);
         let mut route = Router { me: self.rank(), keep: History::default(), out: &mut out };
         for e in hist.pairs {
