@@ -41,6 +41,25 @@ impl Hist {
     pub fn is_zero(&self) -> bool {
         *self == Hist::ZERO
     }
+
+    /// Entry k of a list's shear and rolling arrays (the rolling array is
+    /// empty where the case keeps no rolling history).
+    #[inline(always)]
+    pub fn at(shear: &[Vec3], roll: &[Vec3], k: usize) -> Hist {
+        Hist { shear: shear[k], roll: roll.get(k).copied().unwrap_or_else(Vec3::zeros) }
+    }
+
+    /// Entry k, as the history read out by ids has it: a zero history is no
+    /// history, so a -0 reads as +0 (the bits then match the keyed path).
+    #[inline(always)]
+    fn kept_at(shear: &[Vec3], roll: &[Vec3], k: usize) -> Hist {
+        let h = Hist::at(shear, roll, k);
+        if h.is_zero() {
+            Hist::ZERO
+        } else {
+            h
+        }
+    }
 }
 
 /// Contact history keyed by global ids: pairs (id_a < id_b) and particle-wall
@@ -373,13 +392,13 @@ impl NeighborList {
     /// Pair k's history (shear and rolling).
     #[inline]
     pub fn pair_entry(&self, k: usize) -> Hist {
-        Hist { shear: self.pair_hist[k], roll: self.pair_roll.get(k).copied().unwrap_or_else(Vec3::zeros) }
+        Hist::at(&self.pair_hist, &self.pair_roll, k)
     }
 
     /// Wall candidate k's history (shear and rolling).
     #[inline]
     pub fn wall_entry(&self, k: usize) -> Hist {
-        Hist { shear: self.wall_hist[k], roll: self.wall_roll.get(k).copied().unwrap_or_else(Vec3::zeros) }
+        Hist::at(&self.wall_hist, &self.wall_roll, k)
     }
 
     /// Rebuild the lists, carrying contact history over by global ids.
@@ -396,11 +415,10 @@ impl NeighborList {
         let grid = CellGrid::new(p, self.skin, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
         // the last build's rows are read pair by pair where they are of the
         // same particles in the same places (no periodic images)
-        let along_rows = matches!(carry, Carry::Own) && self.ids == p.id && p.image.is_empty();
         let read;
         let hist = match carry {
             Carry::Keyed(h) => Some(h),
-            Carry::Own if along_rows => None,
+            Carry::Own if self.ids == p.id && p.image.is_empty() => None,
             Carry::Own => {
                 read = self.history_of(&self.ids, self.threaded);
                 Some(&read)
@@ -744,16 +762,7 @@ impl OldWalls<'_> {
                 }
                 let places = start[i] as usize..start[i + 1] as usize;
                 match feat[places.clone()].iter().position(|&x| x == (w, f)) {
-                    Some(j) => {
-                        let k = places.start + j;
-                        let h = Hist { shear: hist[k], roll: roll.get(k).copied().unwrap_or_else(Vec3::zeros) };
-                        // as read out by ids: a zero history is no history
-                        if h.is_zero() {
-                            Hist::ZERO
-                        } else {
-                            h
-                        }
-                    }
+                    Some(j) => Hist::kept_at(hist, roll, places.start + j),
                     None => Hist::ZERO,
                 }
             }
@@ -836,15 +845,7 @@ impl OldPairs<'_> {
                     *cursor += 1;
                 }
                 if *cursor < end && ids[pairs[*cursor].1 as usize] == idb {
-                    let k = *cursor;
-                    let h = Hist { shear: hist[k], roll: roll.get(k).copied().unwrap_or_else(Vec3::zeros) };
-                    // as read out by ids: a zero history is no history (a
-                    // -0 reads as +0)
-                    if h.is_zero() {
-                        Hist::ZERO
-                    } else {
-                        h
-                    }
+                    Hist::kept_at(hist, roll, *cursor)
                 } else {
                     Hist::ZERO
                 }
