@@ -467,28 +467,11 @@ impl NeighborList {
         // partners as (partner id, partner), sorted within each row later;
         // one list pair per pair found, so these are the list's row starts
         let mut seg = std::mem::take(&mut self.spare.row_start);
-        seg.clear();
-        seg.resize(n + 1, 0);
-        for f in &found {
-            for &(a, _) in f {
-                seg[a as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            seg[i + 1] += seg[i];
-        }
         let mut keyed = std::mem::take(&mut self.row_keyed);
-        keyed.clear();
-        keyed.resize(seg[n] as usize, (0, 0));
         {
-            let mut fill = seg.clone();
-            for f in &found {
-                for &(a, b) in f {
-                    let k = &mut fill[a as usize];
-                    keyed[*k as usize] = (p.id[b as usize], b);
-                    *k += 1;
-                }
-            }
+            let chunks: Vec<&[(u32, u32)]> = found.iter().map(|f| &f[..]).collect();
+            let partner = |_: usize, &(_, b): &(u32, u32)| (p.id[b as usize], b);
+            counting_sort(&chunks, n, |&(a, _)| Some(a as usize), partner, (0, 0), &mut seg, &mut keyed, threaded);
         }
         if !threaded {
             self.found = found.into_iter().next().unwrap_or_default();
@@ -546,28 +529,13 @@ impl NeighborList {
     /// particle, then a sort within each).
     fn build_incident(&mut self, p: &Particles) {
         let n_own = p.owned();
-        let start = &mut self.incident_start;
-        start.clear();
-        start.resize(n_own + 1, 0);
-        for &(_, b) in &self.pairs {
-            if (b as usize) < n_own {
-                start[b as usize + 1] += 1;
-            }
-        }
-        for i in 0..n_own {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
+        let threaded = self.threaded && n_own > 2 * ROW_BLOCK;
         // (partner id, pair), so that sorting needs no lookups
-        let keyed = &mut self.incident_keyed;
-        keyed.clear();
-        keyed.resize(start[n_own] as usize, (0, 0));
-        for (k, &(a, b)) in self.pairs.iter().enumerate() {
-            if (b as usize) < n_own {
-                keyed[fill[b as usize] as usize] = (p.id[a as usize], k as u32);
-                fill[b as usize] += 1;
-            }
-        }
+        let (start, keyed) = (&mut self.incident_start, &mut self.incident_keyed);
+        let own = |&(_, b): &(u32, u32)| ((b as usize) < n_own).then_some(b as usize);
+        let partner = |k: usize, &(a, _): &(u32, u32)| (p.id[a as usize], k as u32);
+        counting_sort(&[&self.pairs], n_own, own, partner, (0, 0), start, keyed, threaded);
+        let start = &*start;
         let sort_rows = |keyed: &mut [(u64, u32)], range: std::ops::Range<usize>, off: usize| {
             for i in range {
                 let seg = &mut keyed[start[i] as usize - off..start[i + 1] as usize - off];
@@ -576,7 +544,7 @@ impl NeighborList {
                 }
             }
         };
-        if !self.threaded || n_own <= 2 * ROW_BLOCK {
+        if !threaded {
             sort_rows(keyed, 0..n_own, 0);
         } else {
             row_blocks(keyed, start, n_own).into_par_iter().for_each(|(range, part)| {
@@ -585,7 +553,6 @@ impl NeighborList {
             });
         }
         self.incident.clear();
-        let threaded = self.threaded && n_own > 2 * ROW_BLOCK;
         if threaded {
             self.incident.par_extend(keyed.par_iter().map(|x| x.1));
         } else {
@@ -1085,6 +1052,89 @@ fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: 
     }
 }
 
+/// A stable counting sort by key. Every item of `chunks` (taken chunk after
+/// chunk; item `g` is the g-th over all of them) whose `key` is `Some(k)`,
+/// `k < n_keys`, goes to `out` as `val(g, item)`: in order of key, and the
+/// items of one key in their order in `chunks`. Key k's places are
+/// `start[k]..start[k + 1]`.
+///
+/// On several threads (`threaded`) the keys are cut into one range per
+/// thread: for the counts, equal ranges of keys; for the writes, ranges
+/// holding about equal numbers of items. Each thread scans every item and
+/// counts, then writes, only those whose key is in its range. So each thread
+/// writes its own part of `start` and of `out`, and every item lands in the
+/// place the serial sort gives it (a place depends only on the items before
+/// it). The scans are repeated on every thread, but they are sequential
+/// reads; the counts and writes, which miss the cache, are shared out.
+#[allow(clippy::too_many_arguments)]
+fn counting_sort<T: Sync, O: Copy + Send + Sync>(
+    chunks: &[&[T]],
+    n_keys: usize,
+    key: impl Fn(&T) -> Option<usize> + Sync,
+    val: impl Fn(usize, &T) -> O + Sync,
+    zero: O,
+    start: &mut Vec<u32>,
+    out: &mut Vec<O>,
+    threaded: bool,
+) {
+    let parts = if threaded { rayon::current_num_threads().clamp(1, n_keys.max(1)) } else { 1 };
+    start.clear();
+    start.resize(n_keys + 1, 0);
+    // key k's count into start[k + 1], for the keys `lo..lo + counts.len()`
+    let count = |lo: usize, counts: &mut [u32]| {
+        for c in chunks {
+            for x in c.iter() {
+                if let Some(n) = key(x).and_then(|k| counts.get_mut(k.wrapping_sub(lo))) {
+                    *n += 1;
+                }
+            }
+        }
+    };
+    if parts == 1 {
+        count(0, &mut start[1..]);
+    } else {
+        let per = n_keys.div_ceil(parts);
+        start[1..].par_chunks_mut(per).enumerate().for_each(|(t, counts)| count(t * per, counts));
+    }
+    for k in 0..n_keys {
+        start[k + 1] += start[k];
+    }
+    let total = start[n_keys] as usize;
+    fill_with(out, total, zero, parts > 1);
+    let start = &start[..];
+    // the items of keys `keys` into `part`, the places `start[keys.start]..`
+    let scatter = |keys: std::ops::Range<usize>, part: &mut [O]| {
+        let base = start[keys.start];
+        let mut fill: Vec<u32> = start[keys.clone()].iter().map(|&s| s - base).collect();
+        let mut g = 0;
+        for c in chunks {
+            for x in c.iter() {
+                if let Some(f) = key(x).and_then(|k| fill.get_mut(k.wrapping_sub(keys.start))) {
+                    part[*f as usize] = val(g, x);
+                    *f += 1;
+                }
+                g += 1;
+            }
+        }
+    };
+    if parts == 1 {
+        scatter(0..n_keys, out);
+    } else {
+        // key ranges of about `total / parts` items each
+        let cuts: Vec<usize> = (0..=parts)
+            .map(|t| if t == parts { n_keys } else { start.partition_point(|&s| (s as usize) < t * total / parts).min(n_keys) })
+            .collect();
+        let mut jobs = Vec::with_capacity(parts);
+        let mut rest = &mut out[..];
+        for w in cuts.windows(2) {
+            let (part, r) = std::mem::take(&mut rest).split_at_mut((start[w[1]] - start[w[0]]) as usize);
+            jobs.push((w[0]..w[1], part));
+            rest = r;
+        }
+        jobs.into_par_iter().for_each(|(keys, part)| scatter(keys, part));
+    }
+}
+
 /// The particles counting-sorted into cells (a quarter of the interaction
 /// range along x, the whole range along y and z, or larger where the cell
 /// count is capped), over their bounding box: `sorted[start[c]..start[c + 1]]`
@@ -1204,25 +1254,17 @@ impl CellGrid {
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
         };
         // counting sort of particles into cells, with compact copies in cell order
-        let mut start = vec![0u32; ncell + 1];
         let cells: Vec<usize> = if threaded {
             pos.par_iter().with_min_len(PASS_BLOCK).map(cell_of).collect()
         } else {
             pos.iter().map(cell_of).collect()
         };
-        for &c in &cells {
-            start[c + 1] += 1;
-        }
-        for c in 0..ncell {
-            start[c + 1] += start[c];
-        }
-        let mut fill = start.clone();
-        let mut sorted: Vec<(u64, u32, [f64; 4])> = vec![(0, 0, [0.0; 4]); n];
-        for (i, &c) in cells.iter().enumerate() {
+        let (mut start, mut sorted) = (Vec::new(), Vec::new());
+        let copy = |i: usize, _: &usize| {
             let x = pos[i];
-            sorted[fill[c] as usize] = (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i]]);
-            fill[c] += 1;
-        }
+            (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i]])
+        };
+        counting_sort(&[&cells], ncell, |&c| Some(c), copy, (0, 0, [0.0; 4]), &mut start, &mut sorted, threaded);
         CellGrid { dims, reach_x: SPLIT_X, start, cells, sorted, skin }
     }
 }
@@ -1471,6 +1513,47 @@ mod tests {
             got.sort_unstable();
             want.sort_unstable();
             assert_eq!(got, want);
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(64))]
+        /// The counting sort on 1, 2 and 3 threads is the serial stable sort:
+        /// each key's items in their order, over chunks of any sizes (empty
+        /// ones too), items without a key left out, keys with no items.
+        #[test]
+        fn the_counting_sort_on_threads_is_the_stable_sort(
+            items in proptest::collection::vec((0usize..40, proptest::bool::weighted(0.8)), 0..600),
+            cuts in proptest::collection::vec(0usize..600, 0..5),
+            extra_keys in 0usize..5,
+        ) {
+            let n_keys = 40 + extra_keys;
+            let key = |&(k, has): &(usize, bool)| has.then_some(k);
+            let val = |g: usize, x: &(usize, bool)| (x.0 as u32, g as u32);
+            // the chunks: `items` cut at `cuts`
+            let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c.min(items.len())).collect();
+            cuts.push(0);
+            cuts.push(items.len());
+            cuts.sort_unstable();
+            let chunks: Vec<&[(usize, bool)]> = cuts.windows(2).map(|w| &items[w[0]..w[1]]).collect();
+            // the stable sort by key
+            let mut want: Vec<(u32, u32)> =
+                items.iter().enumerate().filter(|(_, x)| x.1).map(|(g, x)| val(g, x)).collect();
+            want.sort_by_key(|x| x.0);
+            let mut want_start = vec![0u32; n_keys + 1];
+            for &(k, _) in &want {
+                want_start[k as usize + 1] += 1;
+            }
+            for k in 0..n_keys {
+                want_start[k + 1] += want_start[k];
+            }
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let (mut start, mut out) = (vec![7u32; 3], vec![(9u32, 9u32); 5]);
+                pool.install(|| super::counting_sort(&chunks, n_keys, key, val, (0, 0), &mut start, &mut out, threads > 1));
+                proptest::prop_assert_eq!(&out, &want, "{} threads", threads);
+                proptest::prop_assert_eq!(&start, &want_start, "{} threads", threads);
+            }
         }
     }
 }
