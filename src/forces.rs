@@ -94,13 +94,15 @@ fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut 
         let (a, b) = nl.pairs[k];
         law.pair(table.get(p.material[a as usize], p.material[b as usize]), nl.pair_inertia[k])
     };
-    let pairs = if std::mem::size_of::<L::Pair>() == 0 || grain == usize::MAX {
-        constants(nl.pairs.len(), pair)
+    // written into the last build's room
+    let (mut pairs, mut consts) = nl.law_constants.take_buffers::<L>();
+    if std::mem::size_of::<L::Pair>() == 0 || grain == usize::MAX {
+        constants(&mut pairs, nl.pairs.len(), pair);
     } else {
-        (0..nl.pairs.len()).into_par_iter().with_min_len(grain).map(pair).collect()
-    };
+        pairs.par_extend((0..nl.pairs.len()).into_par_iter().with_min_len(grain).map(pair));
+    }
     let mut i = 0; // the particle whose candidates hold k
-    let consts = constants(nl.wall_feat.len(), |k| {
+    constants(&mut consts, nl.wall_feat.len(), |k| {
         while nl.wall_start[i + 1] as usize <= k {
             i += 1;
         }
@@ -109,13 +111,14 @@ fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut 
     nl.law_constants.set(law, nl.builds, pairs, consts);
 }
 
-/// Constants 0..len made by `f`, in order. A law without any (a zero-sized
-/// type, which carries nothing) needs no pass over the list: one stands for all.
-fn constants<T: Copy>(len: usize, mut f: impl FnMut(usize) -> T) -> Vec<T> {
+/// Constants 0..len made by `f`, in order, appended to `v`. A law without
+/// any (a zero-sized type, which carries nothing) needs no pass over the
+/// list: one stands for all.
+fn constants<T: Copy>(v: &mut Vec<T>, len: usize, mut f: impl FnMut(usize) -> T) {
     if std::mem::size_of::<T>() == 0 && len > 0 {
-        vec![f(0); len]
+        v.resize(len, f(0));
     } else {
-        (0..len).map(f).collect()
+        v.extend((0..len).map(f));
     }
 }
 

@@ -473,8 +473,11 @@ impl NeighborList {
             let partner = |_: usize, &(_, b): &(u32, u32)| (p.id[b as usize], b);
             counting_sort(&chunks, n, |&(a, _)| Some(a as usize), partner, (0, 0), &mut seg, &mut keyed, threaded);
         }
+        // (the pairs found are not kept past here: peak memory)
         if !threaded {
             self.found = found.into_iter().next().unwrap_or_default();
+        } else {
+            drop(found);
         }
         // one list pair per pair found: particle a's row is `seg[a]..seg[a + 1]`
         // of every array, written in place (by blocks of rows on several threads)
@@ -1305,6 +1308,21 @@ impl LawConstants {
     pub fn set<L: ContactLaw>(&mut self, law: L, build: u64, pairs: Vec<L::Pair>, walls: Vec<L::Pair>) {
         self.build = build;
         self.data = Some(Box::new(Filled { law, pairs, walls }));
+    }
+    /// The buffers of the constants kept (emptied; their room kept) where they
+    /// are `L`'s, else new ones; none are kept after this. A new build's
+    /// constants are written into the last one's room: the list never holds
+    /// two sets at once (peak memory), and no new pages are touched.
+    pub fn take_buffers<L: ContactLaw>(&mut self) -> (Vec<L::Pair>, Vec<L::Pair>) {
+        match self.data.take().map(|d| d.downcast::<Filled<L>>()) {
+            Some(Ok(f)) => {
+                let Filled { mut pairs, mut walls, .. } = *f;
+                pairs.clear();
+                walls.clear();
+                (pairs, walls)
+            }
+            _ => (Vec::new(), Vec::new()),
+        }
     }
     /// The constants of pairs and of wall candidates (after [`LawConstants::set`] for this law).
     pub fn get<L: ContactLaw>(&self) -> (&[L::Pair], &[L::Pair]) {
