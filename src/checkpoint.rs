@@ -66,7 +66,7 @@ pub fn case_hash(sim: &Simulation) -> u64 {
 /// Encode a checkpoint as the bytes of a checkpoint file.
 pub fn encode(ck: &Checkpoint) -> Result<Vec<u8>, TalusError> {
     let mut out = Vec::new();
-    encode_into(ck, &mut out, false).map_err(|e| TalusError::Run(format!("encoding a checkpoint: {e}")))?;
+    encode_into(ck, &mut out, false).map_err(|e| TalusError::Run(e.to_string()))?;
     Ok(out)
 }
 
@@ -90,7 +90,9 @@ pub fn encode_into(ck: &Checkpoint, w: &mut impl Write, pause: bool) -> std::io:
     w.write_all(&sum.crc.finalize().to_le_bytes())?;
     let pause_at = if pause { sum.len / 2 } else { u64::MAX };
     let mut out = Paused { w, written: 0, pause_at };
-    codec().serialize_into(&mut out, ck).map_err(io)
+    codec().serialize_into(&mut out, ck).map_err(io)?;
+    debug_assert_eq!(out.written, sum.len, "both encodings of a checkpoint give the same bytes");
+    Ok(())
 }
 
 /// A sink that counts and checksums what is written to it.

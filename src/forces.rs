@@ -111,9 +111,9 @@ fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut 
     nl.law_constants.set(law, nl.builds, pairs, consts);
 }
 
-/// Constants 0..len made by `f`, in order, appended to `v`. A law without
-/// any (a zero-sized type, which carries nothing) needs no pass over the
-/// list: one stands for all.
+/// Constants 0..len made by `f`, in order, written into `v` (empty). A law
+/// without any (a zero-sized type, which carries nothing) needs no pass over
+/// the list: one stands for all.
 fn constants<T: Copy>(v: &mut Vec<T>, len: usize, mut f: impl FnMut(usize) -> T) {
     if std::mem::size_of::<T>() == 0 && len > 0 {
         v.resize(len, f(0));
