@@ -298,7 +298,17 @@ def test_checkpoint_from_python_restarts_to_the_uninterrupted_state(tmp_path):
         talus.Simulation.restart(tmp_path / "ck.bin", case)
 
 
-def test_ctrl_c_raises_keyboard_interrupt_between_steps_and_the_run_goes_on():
+@pytest.fixture
+def python_ctrl_c():
+    """Ctrl-C as Python has it by default (KeyboardInterrupt), whatever this
+    process inherited: a process started in the background by a shell without
+    job control inherits SIGINT ignored, and Python then leaves it ignored."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
+def test_ctrl_c_raises_keyboard_interrupt_between_steps_and_the_run_goes_on(python_ctrl_c):
     over = ["particles.lattice.count=2000"]
     ref = talus.Simulation.from_file(CASES / "H1-small.toml", overrides=over)
     ref.step(3000)
@@ -426,7 +436,7 @@ def test_drag_from_python_is_talus_drag(tmp_path):
         talus.drag(bad, out=tmp_path / "bad")
 
 
-def test_ctrl_c_stops_a_drag_study_after_its_bed(tmp_path):
+def test_ctrl_c_stops_a_drag_study_after_its_bed(tmp_path, python_ctrl_c):
     case = tmp_path / "c1-three-beds.toml"
     case.write_text((CASES / "drag" / "c1.toml").read_text().replace('id = "c1"', 'id = "c1-three-beds"\nseeds = [1, 2, 3]'))
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
