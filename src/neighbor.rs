@@ -1,6 +1,6 @@
 //! Neighbour search: a cell grid feeds Verlet lists with a skin. The lists are
-//! rebuilt when any particle has moved more than half the skin since the last
-//! build. Cost per build is linear in N: particles are binned in cells (a
+//! rebuilt when the two particles that moved most since the last build have
+//! moved more than the skin between them (`Moved::stale`). Cost per build is linear in N: particles are binned in cells (a
 //! quarter of the interaction range along x, the whole range along y and z),
 //! and each pair is found once, by the particle that comes first in the
 //! grid's order, from half the 3 x 3 runs of cells around it.
@@ -258,50 +258,100 @@ impl std::fmt::Debug for TouchFlags {
     }
 }
 
+/// How far the particles moved since a list was built: the largest
+/// displacement and the sum of the two largest (m), of one rank's owned
+/// particles or, agreed on (`Parallel::agree`), of all.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Moved {
+    pub first: f64,
+    pub two: f64,
+}
+
+impl Moved {
+    /// Displacements d1 >= d2, the two largest.
+    pub fn of(d1: f64, d2: f64) -> Moved {
+        Moved { first: d1, two: d1 + d2 }
+    }
+
+    /// The particle set changed: the list is stale whatever moved.
+    pub fn everything() -> Moved {
+        Moved { first: f64::INFINITY, two: f64::INFINITY }
+    }
+
+    /// True when a list built with `skin` may have missed a contact, walls
+    /// having moved at most `wall_moved` since. A pair was listed where its
+    /// centres were within r_a + r_b + skin, so two particles that moved d_a
+    /// and d_b can touch without being listed only where d_a + d_b > skin,
+    /// which needs the two largest displacements to add up to more than the
+    /// skin (not twice the largest: a few fast particles need not have moved
+    /// towards each other); a wall candidate was listed within r + skin of the
+    /// feature (a ghost within the largest reach plus the skin of the box), so
+    /// the same holds for d1 + wall_moved. A margin of 1e-9 of the skin covers
+    /// the rounding of the distances. Nothing physical depends on when a
+    /// list is rebuilt (history lives only while a contact touches), so this
+    /// changes speed only.
+    pub fn stale(&self, skin: f64, wall_moved: f64) -> bool {
+        self.two.max(self.first + wall_moved) > skin * (1.0 - 1e-9)
+    }
+}
+
+/// The two largest of four values (each pair sorted, largest first).
+#[inline]
+fn top_two(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    if a[0] >= b[0] {
+        [a[0], a[1].max(b[0])]
+    } else {
+        [b[0], b[1].max(a[0])]
+    }
+}
+
 impl NeighborList {
     pub fn new(skin: f64) -> Self {
         NeighborList { skin, ..Default::default() }
     }
 
-    /// True when the largest particle displacement plus the largest wall
-    /// displacement since the last build exceeds half the skin (no pair or
-    /// particle-wall contact can then have been missed). Also checks that every
+    /// True when the list may have missed a contact (see [`Moved::stale`]),
+    /// from this list's own particles' displacements. Also checks that every
     /// particle is finite and inside the domain.
     pub fn needs_rebuild(&self, p: &Particles, domain: &Domain) -> Result<bool, TalusError> {
-        Ok(self.displacement(p, domain)? + self.wall_moved > 0.5 * self.skin)
+        Ok(self.displacement(p, domain)?.stale(self.skin, self.wall_moved))
     }
 
-    /// Largest displacement of an owned particle since the last build (infinite
-    /// if the particle set changed); checks that each is finite and in the domain.
-    pub fn displacement(&self, p: &Particles, domain: &Domain) -> Result<f64, TalusError> {
+    /// The two largest displacements of owned particles since the last build
+    /// (infinite if the particle set changed); checks that each is finite and
+    /// in the domain.
+    pub fn displacement(&self, p: &Particles, domain: &Domain) -> Result<Moved, TalusError> {
         let n = p.owned();
         let changed = self.x_ref.len() != n;
-        // the largest squared displacement of particles `range` and the first
-        // of them outside the domain (a maximum is exact in any order)
-        let part = |range: std::ops::Range<usize>| -> (f64, Option<usize>) {
-            let mut max2: f64 = 0.0;
+        // the two largest squared displacements of particles `range` and the
+        // first of them outside the domain (a maximum is exact in any order)
+        let part = |range: std::ops::Range<usize>| -> ([f64; 2], Option<usize>) {
+            let mut top = [0.0f64; 2];
             for i in range {
                 let x = &p.pos[i];
                 if !changed {
-                    max2 = max2.max((p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared());
+                    let d2 = (p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared();
+                    if d2 > top[1] {
+                        top = if d2 > top[0] { [d2, top[0]] } else { [top[0], d2] };
+                    }
                 }
                 if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
                     || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
                 {
-                    return (max2, Some(i));
+                    return (top, Some(i));
                 }
             }
-            (max2, None)
+            (top, None)
         };
-        let (max2, bad) = if !self.threaded || n <= 2 * PASS_BLOCK {
+        let (top, bad) = if !self.threaded || n <= 2 * PASS_BLOCK {
             part(0..n)
         } else {
-            blocks(n, PASS_BLOCK).map(part).reduce(|| (0.0, None), |x, y| (x.0.max(y.0), x.1.or(y.1)))
+            blocks(n, PASS_BLOCK).map(part).reduce(|| ([0.0; 2], None), |x, y| (top_two(x.0, y.0), x.1.or(y.1)))
         };
         if let Some(i) = bad {
             return Err(particle_error(p, i, domain));
         }
-        Ok(if changed { f64::INFINITY } else { max2.sqrt() })
+        Ok(if changed { Moved::everything() } else { Moved::of(top[0].sqrt(), top[1].sqrt()) })
     }
 
     /// The non-zero contact history keyed by global ids, sorted by key.
@@ -1573,6 +1623,113 @@ mod tests {
                 pool.install(|| super::counting_sort(&chunks, n_keys, key, val, (0, 0), &mut start, &mut out, threads > 1));
                 proptest::prop_assert_eq!(&out, &want, "{} threads", threads);
                 proptest::prop_assert_eq!(&start, &want_start, "{} threads", threads);
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(48))]
+        /// A list that `Moved::stale` calls fresh holds every touching pair and
+        /// every touching wall contact, however the particles moved: here two
+        /// chosen particles (outside each other's reach) are pushed straight
+        /// towards each other and a third (not the floor's candidate) down
+        /// towards a floor that itself moved up, by amounts up to 1.3 skins,
+        /// the rest jittered. Whenever the list is
+        /// called fresh, no contact is missing; and the push that closes a pair
+        /// beyond the skin is always called stale.
+        #[test]
+        fn a_list_called_fresh_misses_no_contact(
+            seed in 0u64..1_000_000,
+            a_frac in 0.0f64..1.3,
+            b_frac in 0.0f64..1.3,
+            c_frac in 0.0f64..1.3,
+            w_frac in 0.0f64..1.3,
+            jitter in 0.0f64..0.3,
+        ) {
+            use crate::walls::Shape;
+            let mut s = seed.wrapping_mul(2862933555777941757).wrapping_add(3037000493);
+            let mut next = || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let (skin, z_floor) = (5e-4, 0.002);
+            let mut p = Particles::default();
+            for id in 0..300u64 {
+                let pos = Vec3::new(next() * 0.02, next() * 0.02, z_floor + next() * 0.01);
+                let radius = 8e-4 + 4e-4 * next();
+                p.push_sphere(&ParticleInit { id, pos, vel: Vec3::zeros(), omega: Vec3::zeros(), radius }, 2500.0, 0);
+            }
+            let floor = |z: f64| Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, z), normal: Vec3::z() }), 0);
+            let mut nl = NeighborList::new(skin);
+            nl.build(&p, &[floor(z_floor)]);
+            let listed: std::collections::HashSet<(u32, u32)> = nl.pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+            // two particles just beyond each other's reach: the closest unlisted pair
+            let n = p.len();
+            let mut pick = None;
+            for a in 0..n {
+                for b in a + 1..n {
+                    let gap = (p.pos[a] - p.pos[b]).norm() - (p.radius[a] + p.radius[b]) - skin;
+                    if !listed.contains(&(a as u32, b as u32)) && pick.map_or(true, |(g, _, _)| gap < g) {
+                        pick = Some((gap, a, b));
+                    }
+                }
+            }
+            let (gap, a, b) = pick.unwrap();
+            // every particle jittered within `jitter` skins, a and b pushed together
+            let (mut d_max, mut d_second) = (0.0f64, 0.0f64);
+            let mut moves = Vec::new();
+            for i in 0..n {
+                let d = if i == a || i == b {
+                    let towards = (p.pos[if i == a { b } else { a }] - p.pos[i]).normalize();
+                    towards * if i == a { a_frac } else { b_frac } * skin
+                } else {
+                    Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * jitter * skin * next()
+                };
+                moves.push(d);
+            }
+            // and the particle closest to the floor that is not its candidate
+            // pushed down onto it, the floor raised by w
+            let gap_floor = |i: usize| p.pos[i].z - z_floor - p.radius[i];
+            let low = (0..n)
+                .filter(|&i| i != a && i != b && nl.wall_start[i] == nl.wall_start[i + 1])
+                .min_by(|&i, &j| gap_floor(i).total_cmp(&gap_floor(j)))
+                .unwrap();
+            let low_gap = gap_floor(low);
+            moves[low] = Vec3::new(0.0, 0.0, -c_frac * skin);
+            for (i, d) in moves.iter().enumerate() {
+                let x0 = p.pos[i];
+                p.pos[i] += d;
+                let m = (p.pos[i] - x0).norm();
+                if m > d_max {
+                    (d_max, d_second) = (m, d_max);
+                } else if m > d_second {
+                    d_second = m;
+                }
+            }
+            let w = w_frac * skin;
+            let domain = super::Domain { lo: Vec3::new(-1.0, -1.0, -1.0), hi: Vec3::new(1.0, 1.0, 1.0) };
+            let moved = nl.displacement(&p, &domain).unwrap();
+            proptest::prop_assert_eq!(moved.first, d_max);
+            let stale = moved.stale(skin, w);
+            if (a_frac + b_frac) * skin > skin + gap * 1.000001 {
+                proptest::prop_assert!(stale, "a and b closed {} m of a {} m gap past the skin", (a_frac + b_frac) * skin, gap);
+            }
+            if (c_frac + w_frac) * skin > low_gap * 1.000001 {
+                proptest::prop_assert!(stale, "a particle and the floor closed {} m of a {} m gap", (c_frac + w_frac) * skin, low_gap);
+            }
+            if !stale {
+                let wall = floor(z_floor + w);
+                for i in 0..n {
+                    for j in i + 1..n {
+                        if (p.pos[i] - p.pos[j]).norm() < p.radius[i] + p.radius[j] {
+                            proptest::prop_assert!(listed.contains(&(i as u32, j as u32)), "pair {} {} touches, not listed", i, j);
+                        }
+                    }
+                    if wall.contact(0, &p.pos[i], p.radius[i]).is_some() {
+                        let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
+                        proptest::prop_assert!(hi > lo, "particle {} touches the floor, not a candidate", i);
+                    }
+                }
             }
         }
     }

@@ -3,8 +3,9 @@
 //!
 //! 1. integrator first half (Verlet: half kick + drift; Gear: predict);
 //! 2. walls move as prescribed (servo, translation, oscillation, rotation);
-//! 3. neighbour lists are checked (domain, NaN) and rebuilt if any particle moved
-//!    more than half the skin;
+//! 3. neighbour lists are checked (domain, NaN) and rebuilt if the two particles
+//!    that moved most (or the one that moved most and the walls) moved more than
+//!    the skin between them;
 //! 4. forces: gravity, then each particle's pair forces in order of its
 //!    partners' ids (pairs computed in any order, on the rank's threads), then
 //!    its walls in order;
@@ -26,7 +27,7 @@ use crate::forces::{compute_forces, SweepSettings};
 use crate::generate;
 use crate::integrate::{self, GearState, IntegratorKind};
 use crate::material::PairTable;
-use crate::neighbor::{Carry, Domain, History, NeighborList};
+use crate::neighbor::{Carry, Domain, History, Moved, NeighborList};
 use crate::fixed::{from_fixed, to_fixed};
 use crate::parallel::comm::Comm;
 use crate::parallel::decomp::{choose_grid, Decomposition};
@@ -503,13 +504,14 @@ impl Simulation {
         } else {
             st.nl.displacement(&st.p, &self.set.domain)
         };
-        let (need, err) = match moved {
-            Ok(d) => (d + st.nl.wall_moved > 0.5 * st.nl.skin, None),
-            Err(e) => (true, Some(e.to_string())),
+        let (moved, err) = match moved {
+            Ok(d) => (d, None),
+            Err(e) => (Moved::everything(), Some(e.to_string())),
         };
         // a batch of inserted particles joins at a rebuild (every rank knows of it)
-        let need = need || std::mem::replace(&mut self.insert_pending, false);
-        let (need, err) = self.par.agree(need || self.par.rebalance_pending, err);
+        let need = std::mem::replace(&mut self.insert_pending, false);
+        let (need, moved, err) = self.par.agree(need || self.par.rebalance_pending, moved, err);
+        let need = need || moved.stale(st.nl.skin, st.nl.wall_moved);
         self.par.timers.check += t.elapsed().as_secs_f64();
         if let Some(e) = err {
             return Err(TalusError::Run(e));

@@ -4,6 +4,7 @@
 
 use super::Parallel;
 use crate::error::TalusError;
+use crate::neighbor::Moved;
 
 impl Parallel {
     /// "rank r of P: " before a message under MPI; nothing with one rank.
@@ -19,23 +20,40 @@ impl Parallel {
         msgs.join("; ")
     }
 
-    /// One collective per step: whether any rank needs a list rebuild, and
+    /// One collective per step: whether any rank needs a list rebuild for a
+    /// reason of its own (`need`), how far the particles of all ranks moved
+    /// since the last build (`moved`, each rank's own in; the largest and the
+    /// sum of the two largest of all out, the same bits on any rank count), and
     /// whether any rank has failed (then every rank gets every rank's message).
     /// A stop asked for by a signal on any rank (see `crate::signals`) is
     /// agreed on in the same collective and kept in `stop`.
-    pub fn agree(&mut self, need: bool, error: Option<String>) -> (bool, Option<String>) {
+    pub fn agree(&mut self, need: bool, moved: Moved, error: Option<String>) -> (bool, Moved, Option<String>) {
         let t = std::time::Instant::now();
         let signal = crate::signals::requested();
-        let mut v = [need as u8 as f64, error.is_some() as u8 as f64, signal.unwrap_or(0) as f64];
+        // one maximum: the flags, the largest sum of a rank's own two largest
+        // displacements, and each rank's largest in its own slot (the two
+        // largest of those give the sum of two on different ranks)
+        let mut v = vec![0.0; 4 + self.size()];
+        v[..4].copy_from_slice(&[need as u8 as f64, error.is_some() as u8 as f64, signal.unwrap_or(0) as f64, moved.two]);
+        v[4 + self.rank()] = moved.first;
         self.comm.max_f64(&mut v);
         if v[2] > 0.0 && self.stop.is_none() {
             self.stop = Some(v[2] as i32);
         }
+        let (mut m1, mut m2) = (0.0f64, 0.0f64);
+        for &d in &v[4..] {
+            if d > m1 {
+                (m1, m2) = (d, m1);
+            } else if d > m2 {
+                m2 = d;
+            }
+        }
+        let all = Moved { first: m1, two: v[3].max(m1 + m2) };
         let err = (v[1] > 0.0).then(|| self.gather_messages(error));
         let dt = t.elapsed().as_secs_f64();
         self.timers.agree += dt;
         self.timers.comm_s += dt;
-        (v[0] > 0.0, err)
+        (v[0] > 0.0, all, err)
     }
 
     /// Make a result collective: if it is an error on any rank, it is an error
