@@ -31,7 +31,7 @@ use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"TALUSCKP";
 /// Version of the checkpoint layout; bump it when `State` changes shape.
-pub const FORMAT_VERSION: u32 = 3; // 3: contact history carries a rolling spring torque
+pub const FORMAT_VERSION: u32 = 4; // 3: contact history carries a rolling spring torque; 4: the list keeps no R*, m* per pair
 const HEADER: usize = 8 + 4 + 8 + 4;
 
 /// What a checkpoint holds: the case text's hash and the whole state.

@@ -1,6 +1,6 @@
 //! The force sweep: gravity, then every particle's pair forces in order of its
-//! partners' ids (the pairs are computed in any order), then walls in wall
-//! and feature order. The law is chosen once per sweep
+//! partners' ids, those of higher id (its own row, summed as the row is
+//! evaluated), then those of lower id, then walls in wall and feature order. The law is chosen once per sweep
 //! (`contact::dispatch`) and the kernel is monomorphised for it.
 //!
 //! Per contact, whatever the shapes: the geometry stage gives a
@@ -14,7 +14,7 @@ use crate::contact::{dispatch, ContactForce, ContactGeom, ContactLaw, ContactOpt
 use crate::dim::Vec3;
 use crate::fixed::from_fixed;
 use crate::material::{PairMaterial, PairTable};
-use crate::neighbor::{NeighborList, PairOut};
+use crate::neighbor::{row_blocks, NeighborList, PairOut, ROW_BLOCK};
 use crate::particles::Particles;
 use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
 use rayon::prelude::*;
@@ -92,7 +92,8 @@ fn law_constants<L: ContactLaw>(law: L, p: &Particles, walls: &[Wall], nl: &mut 
     }
     let pair = |k: usize| {
         let (a, b) = nl.pairs[k];
-        law.pair(table.get(p.material[a as usize], p.material[b as usize]), nl.pair_inertia[k])
+        let (a, b) = (a as usize, b as usize);
+        law.pair(table.get(p.material[a], p.material[b]), PairInertia::particles(p.radius[a], p.radius[b], p.mass[a], p.mass[b]))
     };
     // written into the last build's room
     let (mut pairs, mut consts) = nl.law_constants.take_buffers::<L>();
@@ -156,12 +157,8 @@ fn sweep<L: ContactLaw>(
     nl: &mut NeighborList,
     table: &PairTable,
 ) -> ContactCount {
-    // gravity: the owned particles' in the gather (`pair_forces`), which
-    // writes every owned particle's force and torque; the ghosts' here
-    for i in p.owned()..p.len() {
-        p.force[i] = s.gravity * p.mass[i];
-        p.torque[i] = Vec3::zeros();
-    }
+    // gravity: in the pair sweep (`pair_forces`), which writes every
+    // particle's force and torque
     law_constants(law, p, walls, nl, table, s.grain);
     let shapes = Shapes::new(p, &s.period);
     let (evaluated, owned) = pair_forces(law, s, p, nl, table, &shapes);
@@ -169,12 +166,15 @@ fn sweep<L: ContactLaw>(
     ContactCount { owned: owned + wall_contacts, evaluated: evaluated + wall_contacts }
 }
 
-/// Pairs in any order (in parallel over the pool's threads), each contact's
-/// force and torques kept in `pair_out`; then every owned particle sums its
-/// own, from its weight, in order of its partners' ids
-/// (`NeighborList::incident`): the same sums, bit for bit, whatever the order
-/// of the pairs or of the particles in storage, and whatever the thread count.
-/// Returns (contacts evaluated, contacts owned).
+/// Pairs row by row, blocks of rows on the pool's threads: each pair's force
+/// and torques are computed once, where the list keeps it (the row of a, its
+/// lower id). Particle a adds its own part at once, in its row's order (its
+/// partners of higher id, by id), to its weight; b's part is kept in
+/// `pair_out`. Then every owned particle takes away what its partners of
+/// lower id put on it, in order of their ids (`NeighborList::incident`): the
+/// same sums, bit for bit, whatever the order of the pairs or of the
+/// particles in storage, and whatever the thread count. Returns (contacts
+/// evaluated, contacts owned).
 fn pair_forces<L: ContactLaw>(
     law: L,
     s: &SweepSettings,
@@ -185,29 +185,50 @@ fn pair_forces<L: ContactLaw>(
 ) -> (usize, usize) {
     let n_own = p.owned();
     let (consts, _) = nl.law_constants.get::<L>();
-    // which particles touch anything (set by any thread, read after: the value
-    // does not depend on the order), so the gather skips the free ones
+    // which particles are b of a touching pair (set by any thread, read
+    // after: the value does not depend on the order), so the gather skips
+    // the others
     let touched = nl.touched.reset(p.len());
+    // the rows' sums go straight into the forces and torques (every row's:
+    // a ghost's is set back to its weight after)
+    let (mut force, mut torque) = (std::mem::take(&mut p.force), std::mem::take(&mut p.torque));
     let pr: &Particles = p;
+    let ev = PairEval { law, s, pr, shapes, table, touched, n_own, consts, pairs: &nl.pairs };
+    let start = &nl.row_start;
+    let n = pr.len();
     // the rolling spring torques where the law keeps them (epsd2), else none:
     // two monomorphised sweeps, so that the laws without add nothing per pair
-    let n_pairs = nl.pairs.len();
-    let ev = PairEval { law, s, pr, shapes, table, touched, n_own };
-    let lists = PairLists {
-        pairs: &nl.pairs,
-        hist: &mut nl.pair_hist,
-        touch: &mut nl.pair_touch,
-        out: &mut nl.pair_out,
-        consts,
-        inertia: &nl.pair_inertia,
-    };
-    let counts = if nl.pair_roll.len() == n_pairs && n_pairs > 0 {
-        ev.sweep(lists, nl.pair_roll.par_iter_mut().map(Some))
+    let rolling = nl.pair_roll.len() == nl.pairs.len() && !nl.pairs.is_empty();
+    let (hist, roll, touch, out) = (&mut nl.pair_hist, &mut nl.pair_roll, &mut nl.pair_touch, &mut nl.pair_out);
+    let counts = if s.grain == usize::MAX || n <= 2 * ROW_BLOCK {
+        let rows = Rows { first: 0, hist, roll, touch, out, force: &mut force, torque: &mut torque };
+        if rolling { ev.rows::<true>(rows, start) } else { ev.rows::<false>(rows, start) }
     } else {
-        ev.sweep(lists, (0..n_pairs).into_par_iter().map(|_| None))
+        let roll_blocks = if rolling { row_blocks(roll, start, n) } else { Vec::new() };
+        let mut roll_blocks = roll_blocks.into_iter();
+        let blocks: Vec<_> = row_blocks(hist, start, n)
+            .into_iter()
+            .zip(row_blocks(touch, start, n))
+            .zip(row_blocks(out, start, n))
+            .zip(force.chunks_mut(ROW_BLOCK).zip(torque.chunks_mut(ROW_BLOCK)))
+            .map(|((((range, hist), (_, touch)), (_, out)), (force, torque))| {
+                let roll: &mut [Vec3] = roll_blocks.next().map_or(&mut [], |x| x.1);
+                Rows { first: range.start, hist, roll, touch, out, force, torque }
+            })
+            .collect();
+        blocks
+            .into_par_iter()
+            .map(|rows| if rolling { ev.rows::<true>(rows, start) } else { ev.rows::<false>(rows, start) })
+            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
     };
-    let (start, incident, rows, touch, out) = (&nl.incident_start, &nl.incident, &nl.row_start, &nl.pair_touch, &nl.pair_out);
-    let (gravity, mass) = (s.gravity, &p.mass);
+    p.force = force;
+    p.torque = torque;
+    // the ghosts': their weight (nothing of theirs is summed on this rank)
+    for i in n_own..n {
+        p.force[i] = s.gravity * p.mass[i];
+        p.torque[i] = Vec3::zeros();
+    }
+    let (start, incident, out, touched) = (&nl.incident_start, &nl.incident, &nl.pair_out, &*touched);
     let gather = |(i, (f, t)): (usize, (&mut Vec3, &mut Vec3))| {
         // the pair results a later particle will read, fetched ahead
         #[cfg(target_arch = "x86_64")]
@@ -221,27 +242,18 @@ fn pair_forces<L: ContactLaw>(
                 }
             }
         }
-        // the sums start from gravity and no torque
-        let (mut fs, mut ts) = (gravity * mass[i], Vec3::zeros());
         if !touched[i].load(Ordering::Relaxed) {
-            *f = fs;
-            *t = ts;
             return;
         }
         // partners of lower id (i is the pair's b), in order of id: zeros
         // for those that do not touch change nothing (f - 0 is f, and a
-        // torque sum, which starts at +0, is never -0, so t + 0 is t) ...
+        // torque sum, which starts at +0, is never -0, so t + 0 is t)
         // (summed in locals, which stay in registers)
+        let (mut fs, mut ts) = (*f, *t);
         for &k in &incident[start[i] as usize..start[i + 1] as usize] {
             let c = &out[k as usize];
             fs -= c.force;
             ts += c.torque_b;
-        }
-        // ... then those of higher id: i's row, already in order of id
-        let row = rows[i] as usize..rows[i + 1] as usize;
-        for (c, _) in out[row.clone()].iter().zip(&touch[row]).filter(|x| *x.1) {
-            fs += c.force;
-            ts += c.torque_a;
         }
         *f = fs;
         *t = ts;
@@ -263,58 +275,90 @@ struct PairEval<'a, L: ContactLaw> {
     table: &'a PairTable,
     touched: &'a [std::sync::atomic::AtomicBool],
     n_own: usize,
+    consts: &'a [L::Pair],
+    pairs: &'a [(u32, u32)],
 }
 
-/// The pair list's arrays the evaluation reads and writes.
-struct PairLists<'a, L: ContactLaw> {
-    pairs: &'a [(u32, u32)],
+/// Touching pairs among a row's flags.
+#[inline(always)]
+fn evaluated_row(touch: &[bool]) -> usize {
+    touch.iter().filter(|t| **t).count()
+}
+
+/// The rows of particles `first..first + force.len()`: their pairs' history,
+/// rolling spring torques (empty unless the law keeps them), touch flags and
+/// b's parts (from the rows' first pair on), and the particles' sums.
+struct Rows<'a> {
+    first: usize,
     hist: &'a mut [Vec3],
+    roll: &'a mut [Vec3],
     touch: &'a mut [bool],
     out: &'a mut [PairOut],
-    consts: &'a [L::Pair],
-    inertia: &'a [PairInertia],
+    force: &'a mut [Vec3],
+    torque: &'a mut [Vec3],
 }
 
 impl<L: ContactLaw> PairEval<'_, L> {
-    /// Every pair's force and torques into `out` (in parallel, any order);
-    /// `rolls` gives each pair its rolling spring torque, or none. Returns
-    /// (contacts evaluated, contacts owned).
-    fn sweep<'r>(&self, l: PairLists<'_, L>, rolls: impl IndexedParallelIterator<Item = Option<&'r mut Vec3>>) -> (usize, usize) {
-        let PairEval { law, s, pr, shapes, table, touched, n_own } = *self;
-        l.pairs
-            .par_iter()
-            .zip(l.hist.par_iter_mut().zip(rolls))
-            .zip(l.touch.par_iter_mut().zip(l.out.par_iter_mut()))
-            .zip(l.consts.par_iter().zip(l.inertia.par_iter()))
-            .with_min_len(s.grain)
-            .map(|(((&(a, b), (hist, roll)), (touch, out)), (pair, &pi))| {
-                let (a, b) = (a as usize, b as usize);
+    /// Every pair of these rows: its force and torques, a's part summed into
+    /// a's force and torque from a's weight (in row order), b's kept in `out`
+    /// (zeros where the pair does not touch). `ROLL`: the law keeps rolling
+    /// spring torques. Returns (contacts evaluated, contacts owned).
+    fn rows<const ROLL: bool>(&self, r: Rows<'_>, start: &[u32]) -> (usize, usize) {
+        let PairEval { law, s, pr, shapes, table, touched, n_own, consts, pairs } = *self;
+        if r.force.is_empty() {
+            return (0, 0);
+        }
+        let base = start[r.first] as usize;
+        let (mut evaluated, mut owned) = (0, 0);
+        let Rows { first, hist, roll, touch, out, force, torque } = r;
+        for (a, (fa, ta)) in (first..).zip(force.iter_mut().zip(torque.iter_mut())) {
+            // the sums start from the weight and no torque
+            let (mut fs, mut ts) = (s.gravity * pr.mass[a], Vec3::zeros());
+            let (k0, k1) = (start[a] as usize, start[a + 1] as usize);
+            let (j0, j1) = (k0 - base, k1 - base);
+            let row = pairs[k0..k1]
+                .iter()
+                .zip(hist[j0..j1].iter_mut())
+                .zip(touch[j0..j1].iter_mut().zip(out[j0..j1].iter_mut()))
+                .zip(&consts[k0..k1])
+                .enumerate();
+            let (ra, ma) = (pr.radius[a], pr.mass[a]);
+            for (q, (((&(_, b), hist), (touch, out)), pair)) in row {
+                let b = b as usize;
                 // invariant: a pair whose flag is down has zeros in `out`
-                let touch_was = *touch;
                 let Some(g) = shapes.pair(pr, a, b) else {
                     if *hist != Vec3::zeros() {
                         *hist = Vec3::zeros();
                     }
-                    if let Some(r) = roll {
-                        *r = Vec3::zeros();
+                    if ROLL {
+                        roll[j0 + q] = Vec3::zeros();
                     }
-                    if touch_was {
+                    if *touch {
                         *touch = false;
                         *out = PairOut::default();
                     }
-                    return (0, 0);
+                    continue;
                 };
                 let pm = table.get(pr.material[a], pr.material[b]);
+                // R*, m*: computed here, where the pair touches (a list of
+                // them would be read and written far more often)
+                let pi = PairInertia::particles(ra, pr.radius[b], ma, pr.mass[b]);
                 let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
                 let mut no_roll = Vec3::zeros();
-                let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, roll.unwrap_or(&mut no_roll), s.dt);
+                let roll = if ROLL { &mut roll[j0 + q] } else { &mut no_roll };
+                let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, roll, s.dt);
                 *touch = true;
-                *out = PairOut { force: c.force, torque_a: c.torque_i, torque_b: c.torque_j };
-                touched[a].store(true, Ordering::Relaxed);
+                *out = PairOut { force: c.force, torque_b: c.torque_j };
+                fs += c.force;
+                ts += c.torque_i;
                 touched[b].store(true, Ordering::Relaxed);
-                (1, (a < n_own) as usize)
-            })
-            .reduce(|| (0usize, 0usize), |x, y| (x.0 + y.0, x.1 + y.1))
+                evaluated += 1;
+            }
+            owned += if a < n_own { evaluated_row(&touch[j0..j1]) } else { 0 };
+            *fa = fs;
+            *ta = ts;
+        }
+        (evaluated, owned)
     }
 }
 

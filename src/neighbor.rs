@@ -7,10 +7,10 @@
 //!
 //! Each pair is (a, b) with id_a < id_b, in storage order of a. Every owned
 //! particle keeps its pairs in order of its partners' global ids
-//! (`incident`), and the force sweep sums its pair forces in that order,
-//! whatever the storage order, the order of the pairs or the rank: the
-//! foundation of results that do not depend on how particles are stored or
-//! split among ranks.
+//! (`incident`), and the force sweep sums its pair forces in order of
+//! partner id (its row's, then these), whatever the storage order, the order
+//! of the pairs or the rank: the foundation of results that do not depend on
+//! how particles are stored or split among ranks.
 
 use crate::contact::{ContactLaw, PairInertia};
 use crate::dim::Vec3;
@@ -119,8 +119,6 @@ pub struct NeighborList {
     /// Whether contacts keep a rolling spring torque (`contact.rolling = "epsd2"`).
     #[serde(default)]
     pub rolling_history: bool,
-    /// R*, m*, sqrt(m*) of each pair (fixed for a pair; computed at build).
-    pub pair_inertia: Vec<PairInertia>,
     /// Particle -> range in `wall_feat`.
     pub wall_start: Vec<u32>,
     /// (wall index, feature index).
@@ -135,7 +133,8 @@ pub struct NeighborList {
     #[serde(default)]
     pub wall_roll: Vec<Vec3>,
     /// R*, m*, sqrt(m*) of each wall candidate (the particle against a flat or
-    /// curved wall; computed at build, like `pair_inertia`).
+    /// curved wall; computed at build; a pair's are computed where it touches,
+    /// from the two particles, `PairInertia::particles`).
     #[serde(skip)]
     pub wall_inertia: Vec<PairInertia>,
     /// The law's constants of every pair and wall candidate (rebuilt with the list).
@@ -149,10 +148,10 @@ pub struct NeighborList {
     /// The pairs in which an owned particle is the higher id (`b`), each
     /// particle's in order of its partners' ids: particle i's are
     /// `incident[incident_start[i]..incident_start[i + 1]]` (pair indices).
-    /// A particle's partners in these come before those of its row (lower ids
-    /// first), so the force sweep sums its pair forces, this list then its
-    /// row, in order of its partners' global ids: the sum does not depend on
-    /// the order of the pairs or of the particles in storage.
+    /// The force sweep sums a particle's row (its partners of higher id, by
+    /// id) as it evaluates the row, then takes away these, by id: the sum
+    /// does not depend on the order of the pairs or of the particles in
+    /// storage.
     #[serde(skip)]
     pub incident_start: Vec<u32>,
     #[serde(skip)]
@@ -170,15 +169,16 @@ pub struct NeighborList {
     /// holds many more pairs than contacts while particles fall).
     #[serde(skip)]
     pub pair_touch: Vec<bool>,
-    /// Whether each particle touches anything at this sweep (work space of
-    /// the force sweep, kept to spare an allocation a step).
+    /// Whether each particle is the b (higher id) of a touching pair at this
+    /// sweep (work space of the force sweep, kept to spare an allocation a
+    /// step).
     #[serde(skip)]
     pub touched: TouchFlags,
     /// The owned particles that have wall candidates, in storage order.
     #[serde(skip)]
     pub wall_owners: Vec<u32>,
-    /// Each pair's force and torques from the last sweep, in list order
-    /// (zeros where the pair does not touch).
+    /// Each pair's part for its b from the last sweep (force, torque on b),
+    /// in list order (zeros where the pair does not touch).
     #[serde(skip)]
     pub pair_out: Vec<PairOut>,
     /// Whether the list is built on the rank's threads (the caller runs the
@@ -537,12 +537,9 @@ impl NeighborList {
         let mut pairs = std::mem::take(&mut self.spare.pairs);
         let mut hist = std::mem::take(&mut self.spare.hist);
         let mut roll = std::mem::take(&mut self.spare.roll);
-        let mut inertia = std::mem::take(&mut self.pair_inertia);
-        let zero_inertia = PairInertia { r_eff: 0.0, m_eff: 0.0, sqrt_m_eff: 0.0 };
         fill_with(&mut pairs, total, (0, 0), threaded);
         fill_with(&mut hist, total, Vec3::zeros(), threaded);
         fill_with(&mut roll, if rolling { total } else { 0 }, Vec3::zeros(), threaded);
-        fill_with(&mut inertia, total, zero_inertia, threaded);
         let first;
         let old = match old_pair {
             Some(pairs) => {
@@ -552,7 +549,7 @@ impl NeighborList {
             None => OldPairs::Rows { start: &self.row_start, pairs: &self.pairs, hist: &self.pair_hist, roll: &self.pair_roll },
         };
         if !threaded {
-            let mut rows = Rows { pairs: &mut pairs, hist: &mut hist, roll: &mut roll, inertia: &mut inertia };
+            let mut rows = Rows { pairs: &mut pairs, hist: &mut hist, roll: &mut roll };
             rows.make(p, &seg, &mut keyed, &old, 0..n);
         } else {
             let seg = &seg;
@@ -561,10 +558,10 @@ impl NeighborList {
             let blocks: Vec<_> = row_blocks(&mut keyed, seg, n)
                 .into_iter()
                 .zip(row_blocks(&mut pairs, seg, n))
-                .zip(row_blocks(&mut hist, seg, n).into_iter().zip(row_blocks(&mut inertia, seg, n)))
-                .map(|(((range, keyed), (_, pairs)), ((_, hist), (_, inertia)))| {
+                .zip(row_blocks(&mut hist, seg, n))
+                .map(|(((range, keyed), (_, pairs)), (_, hist))| {
                     let roll: &mut [Vec3] = roll_blocks.next().map_or(&mut [], |x| x.1);
-                    (range, keyed, Rows { pairs, hist, roll, inertia })
+                    (range, keyed, Rows { pairs, hist, roll })
                 })
                 .collect();
             blocks.into_par_iter().for_each(|(range, keyed, mut rows)| rows.make(p, seg, keyed, &old, range));
@@ -574,7 +571,6 @@ impl NeighborList {
         self.spare.hist = std::mem::replace(&mut self.pair_hist, hist);
         self.spare.roll = std::mem::replace(&mut self.pair_roll, roll);
         self.spare.row_start = std::mem::replace(&mut self.row_start, seg);
-        self.pair_inertia = inertia;
         self.row_keyed = keyed;
     }
 
@@ -974,7 +970,7 @@ impl IdIndex {
 /// Rows of particles `0..n` laid end to end in `rows` (particle a's are
 /// `rows[start[a]..start[a + 1]]`), cut into blocks of `ROW_BLOCK` particles,
 /// each with its own part of `rows`, for the threads.
-fn row_blocks<'a, T>(rows: &'a mut [T], start: &[u32], n: usize) -> Vec<(std::ops::Range<usize>, &'a mut [T])> {
+pub(crate) fn row_blocks<'a, T>(rows: &'a mut [T], start: &[u32], n: usize) -> Vec<(std::ops::Range<usize>, &'a mut [T])> {
     let mut parts = Vec::with_capacity(n.div_ceil(ROW_BLOCK));
     let mut rest = rows;
     for b0 in (0..n).step_by(ROW_BLOCK) {
@@ -1000,16 +996,15 @@ const HIST_PREFETCH: usize = 8;
 const PASS_BLOCK: usize = 8192;
 
 /// Particles a thread takes at once when the pairs are found on several threads.
-const ROW_BLOCK: usize = 2048;
+pub(crate) const ROW_BLOCK: usize = 2048;
 
 /// The rows of a range of particles, to be filled in place: their pairs,
-/// each with its history and R*, m* (`roll` empty unless the list keeps
+/// each with its history (`roll` empty unless the list keeps
 /// rolling spring torques), laid out as the rows' partners in `keyed`.
 struct Rows<'a> {
     pairs: &'a mut [(u32, u32)],
     hist: &'a mut [Vec3],
     roll: &'a mut [Vec3],
-    inertia: &'a mut [PairInertia],
 }
 
 impl Rows<'_> {
@@ -1017,7 +1012,7 @@ impl Rows<'_> {
     /// (partner id, partner) in `part` (the rows of `range` only: particle a's
     /// are `part[seg[a] - seg[range.start]..seg[a + 1] - seg[range.start]]`,
     /// and so are its places in `self`'s arrays): each row sorted by partner
-    /// id, each pair with its history and R*, m*.
+    /// id, each pair with its history.
     fn make(&mut self, p: &Particles, seg: &[u32], part: &mut [(u64, u32)], old: &OldPairs, range: std::ops::Range<usize>) {
         let rolling = !self.roll.is_empty();
         let off = seg[range.start] as usize;
@@ -1046,7 +1041,7 @@ impl Rows<'_> {
             // (partner id, partner): an id is held twice only by a particle
             // and its periodic image, told apart by their places
             row.sort_unstable();
-            let (ida, ra, ma) = (p.id[a], p.radius[a], p.mass[a]);
+            let ida = p.id[a];
             // a's old pairs are one run, in the row's order
             let (mut cursor, old_end) = old.run(a);
             for (k, &(idb, b)) in places.zip(row.iter()) {
@@ -1056,8 +1051,6 @@ impl Rows<'_> {
                 if rolling {
                     self.roll[k] = h.roll;
                 }
-                let bi = b as usize;
-                self.inertia[k] = PairInertia::particles(ra, p.radius[bi], ma, p.mass[bi]);
             }
         }
     }
@@ -1323,12 +1316,12 @@ impl CellGrid {
     }
 }
 
-/// What a touching pair adds to its two particles: the force on a (b gets
-/// minus it) and the torques on a and on b.
+/// What a touching pair adds to its particle b (the higher id; a adds its
+/// own part in the sweep itself): the force on a (b gets minus it) and the
+/// torque on b.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PairOut {
     pub force: Vec3,
-    pub torque_a: Vec3,
     pub torque_b: Vec3,
 }
 

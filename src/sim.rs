@@ -7,8 +7,8 @@
 //!    that moved most (or the one that moved most and the walls) moved more than
 //!    the skin between them;
 //! 4. forces: gravity, then each particle's pair forces in order of its
-//!    partners' ids (pairs computed in any order, on the rank's threads), then
-//!    its walls in order;
+//!    partners' ids, higher ids (its row) then lower (rows evaluated in any
+//!    order, on the rank's threads), then its walls in order;
 //! 5. integrator second half (Verlet: half kick; Gear: correct);
 //! 6. time advances. The driver then calls its observers (analysis, probes, ...,
 //!    `crate::observe`) and checks the phase end conditions (`advance_phase`).
