@@ -199,10 +199,12 @@ fn pair_forces<L: ContactLaw>(
     // the rolling spring torques where the law keeps them (epsd2), else none:
     // two monomorphised sweeps, so that the laws without add nothing per pair
     let rolling = nl.pair_roll.len() == nl.pairs.len() && !nl.pairs.is_empty();
+    // after a build `pair_out` is not cleared: this sweep writes its zeros
+    let clean = std::mem::replace(&mut nl.pair_out_clean, true);
     let (hist, roll, touch, out) = (&mut nl.pair_hist, &mut nl.pair_roll, &mut nl.pair_touch, &mut nl.pair_out);
     let counts = if s.grain == usize::MAX || n <= 2 * ROW_BLOCK {
         let rows = Rows { first: 0, hist, roll, touch, out, force: &mut force, torque: &mut torque };
-        if rolling { ev.rows::<true>(rows, start) } else { ev.rows::<false>(rows, start) }
+        if rolling { ev.rows::<true>(rows, start, clean) } else { ev.rows::<false>(rows, start, clean) }
     } else {
         let roll_blocks = if rolling { row_blocks(roll, start, n) } else { Vec::new() };
         let mut roll_blocks = roll_blocks.into_iter();
@@ -218,7 +220,7 @@ fn pair_forces<L: ContactLaw>(
             .collect();
         blocks
             .into_par_iter()
-            .map(|rows| if rolling { ev.rows::<true>(rows, start) } else { ev.rows::<false>(rows, start) })
+            .map(|rows| if rolling { ev.rows::<true>(rows, start, clean) } else { ev.rows::<false>(rows, start, clean) })
             .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
     };
     p.force = force;
@@ -247,7 +249,8 @@ fn pair_forces<L: ContactLaw>(
         }
         // partners of lower id (i is the pair's b), in order of id: zeros
         // for those that do not touch change nothing (f - 0 is f, and a
-        // torque sum, which starts at +0, is never -0, so t + 0 is t)
+        // torque sum, which starts at +0, is never -0, so t + 0 is t), and
+        // cost less than a test (a branch the processor cannot predict)
         // (summed in locals, which stay in registers)
         let (mut fs, mut ts) = (*f, *t);
         for &k in &incident[start[i] as usize..start[i + 1] as usize] {
@@ -301,9 +304,10 @@ struct Rows<'a> {
 impl<L: ContactLaw> PairEval<'_, L> {
     /// Every pair of these rows: its force and torques, a's part summed into
     /// a's force and torque from a's weight (in row order), b's kept in `out`
-    /// (zeros where the pair does not touch). `ROLL`: the law keeps rolling
+    /// (zeros where it does not: `clean` says whether `out` already holds
+    /// them, else this sweep writes them). `ROLL`: the law keeps rolling
     /// spring torques. Returns (contacts evaluated, contacts owned).
-    fn rows<const ROLL: bool>(&self, r: Rows<'_>, start: &[u32]) -> (usize, usize) {
+    fn rows<const ROLL: bool>(&self, r: Rows<'_>, start: &[u32], clean: bool) -> (usize, usize) {
         let PairEval { law, s, pr, shapes, table, touched, n_own, consts, pairs } = *self;
         if r.force.is_empty() {
             return (0, 0);
@@ -326,6 +330,7 @@ impl<L: ContactLaw> PairEval<'_, L> {
             for (q, (((&(_, b), hist), (touch, out)), pair)) in row {
                 let b = b as usize;
                 // invariant: a pair whose flag is down has zeros in `out`
+                // (written here by the first sweep after a build)
                 let Some(g) = shapes.pair(pr, a, b) else {
                     if *hist != Vec3::zeros() {
                         *hist = Vec3::zeros();
@@ -333,7 +338,7 @@ impl<L: ContactLaw> PairEval<'_, L> {
                     if ROLL {
                         roll[j0 + q] = Vec3::zeros();
                     }
-                    if *touch {
+                    if *touch || !clean {
                         *touch = false;
                         *out = PairOut::default();
                     }

@@ -178,9 +178,14 @@ pub struct NeighborList {
     #[serde(skip)]
     pub wall_owners: Vec<u32>,
     /// Each pair's part for its b from the last sweep (force, torque on b),
-    /// in list order (zeros where the pair does not touch).
+    /// in list order (zeros where the pair does not touch, once a sweep
+    /// has run on this build: `pair_out_clean`).
     #[serde(skip)]
     pub pair_out: Vec<PairOut>,
+    /// Whether `pair_out` holds zeros for the pairs that do not touch (false
+    /// from a build to the first sweep, which writes them).
+    #[serde(skip)]
+    pub pair_out_clean: bool,
     /// Whether the list is built on the rank's threads (the caller runs the
     /// build inside the rank's pool); results do not depend on it.
     #[serde(skip)]
@@ -537,9 +542,10 @@ impl NeighborList {
         let mut pairs = std::mem::take(&mut self.spare.pairs);
         let mut hist = std::mem::take(&mut self.spare.hist);
         let mut roll = std::mem::take(&mut self.spare.roll);
-        fill_with(&mut pairs, total, (0, 0), threaded);
-        fill_with(&mut hist, total, Vec3::zeros(), threaded);
-        fill_with(&mut roll, if rolling { total } else { 0 }, Vec3::zeros(), threaded);
+        // every place is written below: only a longer list's new places are filled first
+        sized(&mut pairs, total, (0, 0));
+        sized(&mut hist, total, Vec3::zeros());
+        sized(&mut roll, if rolling { total } else { 0 }, Vec3::zeros());
         let first;
         let old = match old_pair {
             Some(pairs) => {
@@ -608,9 +614,11 @@ impl NeighborList {
         } else {
             self.incident.extend(keyed.iter().map(|x| x.1));
         }
-        // a new list starts with no pair touching and zeros for every pair
+        // a new list starts with no pair touching; the results' zeros are
+        // written by the first sweep as it passes (no pass of its own)
         fill_with(&mut self.pair_touch, self.pairs.len(), false, threaded);
-        fill_with(&mut self.pair_out, self.pairs.len(), PairOut::default(), threaded);
+        sized(&mut self.pair_out, self.pairs.len(), PairOut::default());
+        self.pair_out_clean = false;
     }
 
     /// Every owned particle's wall candidates `(wall, feature)` within reach,
@@ -1090,6 +1098,14 @@ fn in_blocks<T: Copy + Send + Sync>(
 }
 
 /// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
+/// `v` of length `len`, its first places as they were (a build that writes
+/// every place needs no clearing pass over the arrays it reuses); new
+/// places hold `x`.
+fn sized<T: Copy>(v: &mut Vec<T>, len: usize, x: T) {
+    v.truncate(len);
+    v.resize(len, x);
+}
+
 fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: bool) {
     v.clear();
     if threaded {
