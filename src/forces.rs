@@ -282,12 +282,6 @@ struct PairEval<'a, L: ContactLaw> {
     pairs: &'a [(u32, u32)],
 }
 
-/// Touching pairs among a row's flags.
-#[inline(always)]
-fn evaluated_row(touch: &[bool]) -> usize {
-    touch.iter().filter(|t| **t).count()
-}
-
 /// The rows of particles `first..first + force.len()`: their pairs' history,
 /// rolling spring torques (empty unless the law keeps them), touch flags and
 /// b's parts (from the rows' first pair on), and the particles' sums.
@@ -315,53 +309,46 @@ impl<L: ContactLaw> PairEval<'_, L> {
         let base = start[r.first] as usize;
         let (mut evaluated, mut owned) = (0, 0);
         let Rows { first, hist, roll, touch, out, force, torque } = r;
-        for (a, (fa, ta)) in (first..).zip(force.iter_mut().zip(torque.iter_mut())) {
-            // the sums start from the weight and no torque
-            let (mut fs, mut ts) = (s.gravity * pr.mass[a], Vec3::zeros());
-            let (k0, k1) = (start[a] as usize, start[a + 1] as usize);
-            let (j0, j1) = (k0 - base, k1 - base);
-            let row = pairs[k0..k1]
-                .iter()
-                .zip(hist[j0..j1].iter_mut())
-                .zip(touch[j0..j1].iter_mut().zip(out[j0..j1].iter_mut()))
-                .zip(&consts[k0..k1])
-                .enumerate();
-            let (ra, ma) = (pr.radius[a], pr.mass[a]);
-            for (q, (((&(_, b), hist), (touch, out)), pair)) in row {
-                let b = b as usize;
-                // invariant: a pair whose flag is down has zeros in `out`
-                // (written here by the first sweep after a build)
-                let Some(g) = shapes.pair(pr, a, b) else {
-                    if *hist != Vec3::zeros() {
-                        *hist = Vec3::zeros();
-                    }
-                    if ROLL {
-                        roll[j0 + q] = Vec3::zeros();
-                    }
-                    if *touch || !clean {
-                        *touch = false;
-                        *out = PairOut::default();
-                    }
-                    continue;
-                };
-                let pm = table.get(pr.material[a], pr.material[b]);
-                // R*, m*: computed here, where the pair touches (a list of
-                // them would be read and written far more often)
-                let pi = PairInertia::particles(ra, pr.radius[b], ma, pr.mass[b]);
-                let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
-                let mut no_roll = Vec3::zeros();
-                let roll = if ROLL { &mut roll[j0 + q] } else { &mut no_roll };
-                let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, roll, s.dt);
-                *touch = true;
-                *out = PairOut { force: c.force, torque_b: c.torque_j };
-                fs += c.force;
-                ts += c.torque_i;
-                touched[b].store(true, Ordering::Relaxed);
-                evaluated += 1;
-            }
-            owned += if a < n_own { evaluated_row(&touch[j0..j1]) } else { 0 };
-            *fa = fs;
-            *ta = ts;
+        // the sums start from the weight and no torque, and take each pair
+        // of the row in turn (one pass over the pairs of all these rows)
+        for (a, (f, t)) in (first..).zip(force.iter_mut().zip(torque.iter_mut())) {
+            *f = s.gravity * pr.mass[a];
+            *t = Vec3::zeros();
+        }
+        let k1 = start[first + force.len()] as usize;
+        let all = pairs[base..k1].iter().zip(hist.iter_mut()).zip(touch.iter_mut().zip(out.iter_mut())).zip(&consts[base..k1]).enumerate();
+        for (j, (((&(a, b), hist), (touch, out)), pair)) in all {
+            let (a, b) = (a as usize, b as usize);
+            // invariant: a pair whose flag is down has zeros in `out`
+            // (written here by the first sweep after a build)
+            let Some(g) = shapes.pair(pr, a, b) else {
+                if *hist != Vec3::zeros() {
+                    *hist = Vec3::zeros();
+                }
+                if ROLL {
+                    roll[j] = Vec3::zeros();
+                }
+                if *touch || !clean {
+                    *touch = false;
+                    *out = PairOut::default();
+                }
+                continue;
+            };
+            let pm = table.get(pr.material[a], pr.material[b]);
+            // R*, m*: computed here, where the pair touches (a list of
+            // them would be read and written far more often)
+            let pi = PairInertia::particles(pr.radius[a], pr.radius[b], pr.mass[a], pr.mass[b]);
+            let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
+            let mut no_roll = Vec3::zeros();
+            let roll = if ROLL { &mut roll[j] } else { &mut no_roll };
+            let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, roll, s.dt);
+            *touch = true;
+            *out = PairOut { force: c.force, torque_b: c.torque_j };
+            force[a - first] += c.force;
+            torque[a - first] += c.torque_i;
+            touched[b].store(true, Ordering::Relaxed);
+            evaluated += 1;
+            owned += (a < n_own) as usize;
         }
         (evaluated, owned)
     }
