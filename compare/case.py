@@ -424,7 +424,8 @@ def series_checks(talus, ref, tol):
                 out.append({"kind": "window", "name": f"{col}@[{w0},{w1}]", "deviation": math.nan, "tolerance": 0, "ok": False})
                 continue
             d = float(abs(talus[col][ia].mean() - ref[col][ib].mean()) / scale)
-            out.append({"kind": "window", "name": f"{col}@[{w0},{w1}]", "deviation": d, "tolerance": tol["window_mean"], "ok": d <= tol["window_mean"]})
+            tw = tol["window_means"].get(col, tol["window_mean"])
+            out.append({"kind": "window", "name": f"{col}@[{w0},{w1}]", "deviation": d, "tolerance": tw, "ok": d <= tw})
     return out
 
 
@@ -505,7 +506,7 @@ def main(argv=None):
         return 2
     tol = dict(DEFAULTS)
     tol.update(case.get("compare", {}))
-    for k, v in (("figures", {}), ("series", {}), ("windows", []), ("ignore", [])):
+    for k, v in (("figures", {}), ("series", {}), ("windows", []), ("window_means", {}), ("ignore", [])):
         tol.setdefault(k, v)
     out = a.out or Path("out") / "compare" / a.case.stem
     out.mkdir(parents=True, exist_ok=True)

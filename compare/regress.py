@@ -9,7 +9,7 @@ tolerances of the case's `[compare]` section:
 - every probe column of probes.csv: the largest deviation over the run, as a fraction
   of the golden column's range: `series_range` (default 0.05), per column `series.NAME`;
 - each column's mean over each window of `windows = [[t0, t1], ...]`, as a fraction of
-  its range: `window_mean` (default 0.02);
+  its range: `window_mean` (default 0.02), per column `window_means.NAME`;
 - `ignore = [...]` leaves figures or columns out; `regress_steps = N` cuts the run to N
   steps (long cases in CI); `--steps` overrides it.
 
@@ -63,6 +63,7 @@ def tolerances(case):
     c.setdefault("figures", {})
     c.setdefault("series", {})
     c.setdefault("windows", [])
+    c.setdefault("window_means", {})
     c.setdefault("ignore", [])
     return c
 
@@ -159,7 +160,7 @@ def check(golden, figures, series, tol):
                 ma = sum(a[i] for i in idx) / len(idx)
                 mb = sum(b[i] for i in idx) / len(idx)
                 d = abs(ma - mb) / scale
-                tw = tol["window_mean"]
+                tw = tol["window_means"].get(col, tol["window_mean"])
                 out.append(("window", f"{col}@[{w0},{w1}]", d <= tw, d, tw,
                             f"{col} mean over [{w0}, {w1}] s: {ma:.9g}, golden {mb:.9g} ({d:.3g} of the range, tolerance {tw:g})"))
     return out

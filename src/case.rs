@@ -765,6 +765,9 @@ pub struct CompareSection {
     /// Difference of a column's means over a window, as a fraction of its range (default 0.02).
     #[serde(default = "default_window_mean")]
     pub window_mean: f64,
+    /// Per probe column, in place of `window_mean`.
+    #[serde(default)]
+    pub window_means: std::collections::BTreeMap<String, f64>,
     /// Figures and probe columns left out of the comparison.
     #[serde(default)]
     pub ignore: Vec<String>,
@@ -791,6 +794,7 @@ impl Default for CompareSection {
             series: Default::default(),
             windows: Vec::new(),
             window_mean: default_window_mean(),
+            window_means: Default::default(),
             ignore: Vec::new(),
             regress_steps: None,
         }
