@@ -298,8 +298,8 @@ struct Rows<'a> {
 impl<L: ContactLaw> PairEval<'_, L> {
     /// Every pair of these rows: its force and torques, a's part summed into
     /// a's force and torque from a's weight (in row order), b's kept in `out`
-    /// (zeros where it does not: `clean` says whether `out` already holds
-    /// them, else this sweep writes them). `ROLL`: the law keeps rolling
+    /// (zeros where the pair does not touch: `clean` says whether `out`
+    /// already holds them, else this sweep writes them). `ROLL`: the law keeps rolling
     /// spring torques. Returns (contacts evaluated, contacts owned).
     fn rows<const ROLL: bool>(&self, r: Rows<'_>, start: &[u32], clean: bool) -> (usize, usize) {
         let PairEval { law, s, pr, shapes, table, touched, n_own, consts, pairs } = *self;

@@ -300,9 +300,10 @@ impl Moved {
     }
 }
 
-/// The two largest of four values (each pair sorted, largest first).
+/// The two largest of four values (each pair sorted, largest first; values
+/// are displacements, never below 0).
 #[inline]
-fn top_two(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+pub(crate) fn top_two(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     if a[0] >= b[0] {
         [a[0], a[1].max(b[0])]
     } else {
@@ -335,10 +336,7 @@ impl NeighborList {
             for i in range {
                 let x = &p.pos[i];
                 if !changed {
-                    let d2 = (p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared();
-                    if d2 > top[1] {
-                        top = if d2 > top[0] { [d2, top[0]] } else { [top[0], d2] };
-                    }
+                    top = top_two(top, [(p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared(), 0.0]);
                 }
                 if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
                     || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)

@@ -4,7 +4,7 @@
 
 use super::Parallel;
 use crate::error::TalusError;
-use crate::neighbor::Moved;
+use crate::neighbor::{top_two, Moved};
 
 impl Parallel {
     /// "rank r of P: " before a message under MPI; nothing with one rank.
@@ -40,14 +40,7 @@ impl Parallel {
         if v[2] > 0.0 && self.stop.is_none() {
             self.stop = Some(v[2] as i32);
         }
-        let (mut m1, mut m2) = (0.0f64, 0.0f64);
-        for &d in &v[4..] {
-            if d > m1 {
-                (m1, m2) = (d, m1);
-            } else if d > m2 {
-                m2 = d;
-            }
-        }
+        let [m1, m2] = v[4..].iter().fold([0.0, 0.0], |t, &d| top_two(t, [d, 0.0]));
         let all = Moved { first: m1, two: v[3].max(m1 + m2) };
         let err = (v[1] > 0.0).then(|| self.gather_messages(error));
         let dt = t.elapsed().as_secs_f64();
