@@ -216,8 +216,18 @@ pub enum Carry<'a> {
     Keyed(&'a History),
     /// The list's own, from the last build (one rank): pair by pair along
     /// the rows where the particles are those of the last build in the same
-    /// storage order, else read out by the ids they had then.
+    /// storage order, else looked up row by row through the places the
+    /// particles had then (as `OwnAnd` with nothing received).
     Own,
+    /// The list's own, each particle's row found through the place its id
+    /// had at the last build, and where a pair or wall candidate has no
+    /// history there, the one received (`arrived`, sorted by key: the
+    /// history that came with particles from other ranks). The same values
+    /// as the keyed history of the particles that stay merged with
+    /// `arrived`: a pair held on two ranks has the same history on both,
+    /// bit for bit. Where an id is held twice (periodic images) the
+    /// history is read out by ids and merged instead.
+    OwnAnd(&'a History),
 }
 
 /// A list's arrays kept from the build before the last (see `NeighborList::spare`).
@@ -330,21 +340,39 @@ impl NeighborList {
         let n = p.owned();
         let changed = self.x_ref.len() != n;
         // the two largest squared displacements of particles `range` and the
-        // first of them outside the domain (a maximum is exact in any order)
+        // first of them outside the domain (a maximum is exact in any order).
+        // One branch-light pass: a displacement goes into the top two only
+        // where it beats the second (the same two either way), and the domain
+        // test is or-ed up and looked into again only where some particle fails
+        // it (a NaN fails it too).
+        let (lo, hi) = (domain.lo, domain.hi);
+        let outside = |x: &Vec3| {
+            !(x.x >= lo.x) | !(x.y >= lo.y) | !(x.z >= lo.z) | !(x.x <= hi.x) | !(x.y <= hi.y) | !(x.z <= hi.z)
+        };
         let part = |range: std::ops::Range<usize>| -> ([f64; 2], Option<usize>) {
             let mut top = [0.0f64; 2];
-            for i in range {
-                let x = &p.pos[i];
-                if !changed {
-                    top = top_two(top, [(p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared(), 0.0]);
+            let mut bad = false;
+            let pos = &p.pos[range.clone()];
+            if changed {
+                bad = pos.iter().fold(false, |b, x| b | outside(x));
+            } else if p.image.is_empty() {
+                for (x, r) in pos.iter().zip(&self.x_ref[range.clone()]) {
+                    let d2 = (x - r).norm_squared();
+                    if d2 > top[1] {
+                        top = top_two(top, [d2, 0.0]);
+                    }
+                    bad |= outside(x);
                 }
-                if !(x.x >= domain.lo.x && x.y >= domain.lo.y && x.z >= domain.lo.z)
-                    || !(x.x <= domain.hi.x && x.y <= domain.hi.y && x.z <= domain.hi.z)
-                {
-                    return (top, Some(i));
+            } else {
+                for (i, x) in range.clone().zip(pos) {
+                    let d2 = (p.list_pos(i, &self.period) - self.x_ref[i]).norm_squared();
+                    if d2 > top[1] {
+                        top = top_two(top, [d2, 0.0]);
+                    }
+                    bad |= outside(x);
                 }
             }
-            (top, None)
+            (top, if bad { range.clone().find(|&i| outside(&p.pos[i])) } else { None })
         };
         let (top, bad) = if !self.threaded || n <= 2 * PASS_BLOCK {
             part(0..n)
@@ -469,23 +497,48 @@ impl NeighborList {
         // the last build's rows are read pair by pair where they are of the
         // same particles in the same places (no periodic images)
         let read;
-        let hist = match carry {
-            Carry::Keyed(h) => Some(h),
-            Carry::Own if self.ids == p.id && p.image.is_empty() => None,
-            Carry::Own => {
-                read = self.history_of(&self.ids, self.threaded);
-                Some(&read)
+        let nothing = History::default();
+        let (hist, mapped) = match carry {
+            Carry::Keyed(h) => (Some(h), None),
+            Carry::Own if self.ids == p.id && p.image.is_empty() => (None, None),
+            Carry::Own | Carry::OwnAnd(_) => {
+                let arrived = if let Carry::OwnAnd(h) = carry { h } else { &nothing };
+                match self.old_places(p) {
+                    Some(map) => (None, Some((map, arrived))),
+                    None => {
+                        let mut keyed = self.history_of(&self.ids, self.threaded);
+                        keyed.merge(arrived.clone());
+                        read = keyed;
+                        (Some(&read), None)
+                    }
+                }
             }
         };
-        self.build_pairs(p, &grid, hist.map(|h| &h.pairs[..]));
+        let mapped = mapped.as_ref().map(|(map, arrived)| (&map[..], *arrived));
+        self.build_pairs(p, &grid, hist.map(|h| &h.pairs[..]), mapped);
         self.build_incident(p);
-        self.build_wall_candidates(p, walls, hist.map(|h| &h.walls[..]));
+        self.build_wall_candidates(p, walls, hist.map(|h| &h.walls[..]), mapped);
         self.ids.clear();
         self.ids.extend_from_slice(&p.id);
         self.x_ref.clear();
         self.x_ref.extend((0..p.owned()).map(|i| p.list_pos(i, &self.period)));
         self.wall_moved = 0.0;
         self.builds += 1;
+    }
+
+    /// Each particle's place at the last build (`u32::MAX`: it was not on
+    /// this rank then), found by its id; `None` where an id is held twice,
+    /// now or then (periodic images), or the last build's arrays are not of
+    /// its particles.
+    fn old_places(&self, p: &Particles) -> Option<Vec<u32>> {
+        if !p.image.is_empty() || self.row_start.len() != self.ids.len() + 1 || self.wall_start.len() > self.ids.len() + 1 {
+            return None;
+        }
+        let index = IdIndex::new(&self.ids);
+        if index.twice {
+            return None;
+        }
+        Some(p.id.iter().map(|&id| index.get(id).map_or(u32::MAX, |i| i as u32)).collect())
     }
 
     /// The pairs within reach (`id_a < id_b`, sorted), each with its history
@@ -497,7 +550,7 @@ impl NeighborList {
     /// several threads, blocks of the grid are searched at once and blocks of
     /// rows are made at once, each into its own part of the arrays: the same
     /// list as on one.
-    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: Option<&[((u64, u64), Hist)]>) {
+    fn build_pairs(&mut self, p: &Particles, grid: &CellGrid, old_pair: Option<&[((u64, u64), Hist)]>, mapped: Option<(&[u32], &History)>) {
         let n = p.len();
         let rolling = self.rolling_history;
         let threaded = self.threaded && n > 2 * ROW_BLOCK;
@@ -545,12 +598,21 @@ impl NeighborList {
         sized(&mut hist, total, Vec3::zeros());
         sized(&mut roll, if rolling { total } else { 0 }, Vec3::zeros());
         let first;
-        let old = match old_pair {
-            Some(pairs) => {
+        let old = match (old_pair, mapped) {
+            (Some(pairs), _) => {
                 first = history_runs(p, pairs);
                 OldPairs::Keyed { pairs, first: &first }
             }
-            None => OldPairs::Rows { start: &self.row_start, pairs: &self.pairs, hist: &self.pair_hist, roll: &self.pair_roll },
+            (None, Some((map, arrived))) => OldPairs::Mapped {
+                map,
+                old_ids: &self.ids,
+                start: &self.row_start,
+                pairs: &self.pairs,
+                hist: &self.pair_hist,
+                roll: &self.pair_roll,
+                arrived: &arrived.pairs,
+            },
+            (None, None) => OldPairs::Rows { start: &self.row_start, pairs: &self.pairs, hist: &self.pair_hist, roll: &self.pair_roll },
         };
         if !threaded {
             let mut rows = Rows { pairs: &mut pairs, hist: &mut hist, roll: &mut roll };
@@ -623,7 +685,13 @@ impl NeighborList {
     /// each with its history from `old_wall` (sorted by key) and its R*, m*.
     /// On several threads, blocks of particles at once, joined in order: the
     /// same candidates as on one.
-    fn build_wall_candidates(&mut self, p: &Particles, walls: &[Wall], old_wall: Option<&[((u64, u16, u32), Hist)]>) {
+    fn build_wall_candidates(
+        &mut self,
+        p: &Particles,
+        walls: &[Wall],
+        old_wall: Option<&[((u64, u16, u32), Hist)]>,
+        mapped: Option<(&[u32], &History)>,
+    ) {
         let n_own = p.owned();
         // written into the spare arrays: the last build's are read for history
         let mut all = WallRows {
@@ -636,11 +704,11 @@ impl NeighborList {
             image: std::mem::take(&mut self.wall_image),
         };
         all.clear();
-        let old = match old_wall {
-            Some(keyed) => OldWalls::Keyed(keyed),
-            None => {
-                OldWalls::Rows { start: &self.wall_start, feat: &self.wall_feat, hist: &self.wall_hist, roll: &self.wall_roll }
-            }
+        let rows = OldWalls::Rows { start: &self.wall_start, feat: &self.wall_feat, hist: &self.wall_hist, roll: &self.wall_roll };
+        let old = match (old_wall, mapped) {
+            (Some(keyed), _) => OldWalls::Keyed(keyed),
+            (None, Some((map, arrived))) => OldWalls::Mapped { map, rows: Box::new(rows), arrived: &arrived.walls },
+            (None, None) => rows,
         };
         let find = WallFind { p, walls, old, skin: self.skin, period: self.period, rolling: self.rolling_history };
         if !self.threaded || n_own <= 2 * ROW_BLOCK {
@@ -770,6 +838,9 @@ enum OldWalls<'a> {
     Keyed(&'a [((u64, u16, u32), Hist)]),
     /// The last build's candidates, of the same particles in the same places.
     Rows { start: &'a [u32], feat: &'a [(u16, u32)], hist: &'a [Vec3], roll: &'a [Vec3] },
+    /// The last build's candidates (`rows`) at each particle's place then
+    /// (`map`, `u32::MAX` for none), else those received (`Carry::OwnAnd`).
+    Mapped { map: &'a [u32], rows: Box<OldWalls<'a>>, arrived: &'a [((u64, u16, u32), Hist)] },
 }
 
 impl OldWalls<'_> {
@@ -787,6 +858,14 @@ impl OldWalls<'_> {
                 match feat[places.clone()].iter().position(|&x| x == (w, f)) {
                     Some(j) => Hist::kept_at(hist, roll, places.start + j),
                     None => Hist::ZERO,
+                }
+            }
+            OldWalls::Mapped { map, rows, arrived } => {
+                let h = if map[i] == u32::MAX { Hist::ZERO } else { rows.find(id, map[i] as usize, w, f) };
+                if h.is_zero() && !arrived.is_empty() {
+                    OldWalls::Keyed(arrived).find(id, i, w, f)
+                } else {
+                    h
                 }
             }
         }
@@ -834,41 +913,92 @@ enum OldPairs<'a> {
     Keyed { pairs: &'a [((u64, u64), Hist)], first: &'a [u32] },
     /// The last build's rows, of the same particles in the same places.
     Rows { start: &'a [u32], pairs: &'a [(u32, u32)], hist: &'a [Vec3], roll: &'a [Vec3] },
+    /// The last build's rows, each particle's at its place then (`map`,
+    /// `u32::MAX` for none; `old_ids`: the ids then), and where a pair has
+    /// no history there, the history received (`Carry::OwnAnd`).
+    Mapped {
+        map: &'a [u32],
+        old_ids: &'a [u64],
+        start: &'a [u32],
+        pairs: &'a [(u32, u32)],
+        hist: &'a [Vec3],
+        roll: &'a [Vec3],
+        arrived: &'a [((u64, u64), Hist)],
+    },
+}
+
+/// Where a row's look-ups have got to in the old history (`OldPairs::find`):
+/// places `k..end` of the old rows or keyed history, and for
+/// `OldPairs::Mapped` places `ak..a_end` of the history received.
+struct Cursor {
+    k: usize,
+    end: usize,
+    ak: usize,
+    a_end: usize,
 }
 
 impl OldPairs<'_> {
-    /// Particle a's old pairs: the places `cursor..end` to look in.
+    /// Particle a's (of id `ida`) old pairs: where its row's look-ups start.
     #[inline(always)]
-    fn run(&self, a: usize) -> (usize, usize) {
+    fn run(&self, a: usize, ida: u64) -> Cursor {
         match self {
-            OldPairs::Keyed { pairs, first } => (first[a] as usize, pairs.len()),
-            OldPairs::Rows { start, .. } => (start[a] as usize, start[a + 1] as usize),
+            OldPairs::Keyed { pairs, first } => Cursor { k: first[a] as usize, end: pairs.len(), ak: 0, a_end: 0 },
+            OldPairs::Rows { start, .. } => Cursor { k: start[a] as usize, end: start[a + 1] as usize, ak: 0, a_end: 0 },
+            OldPairs::Mapped { map, start, arrived, .. } => {
+                let (k, end) = match map[a] {
+                    u32::MAX => (0, 0),
+                    o => (start[o as usize] as usize, start[o as usize + 1] as usize),
+                };
+                let (ak, a_end) = if arrived.is_empty() {
+                    (0, 0)
+                } else {
+                    (arrived.partition_point(|e| e.0 .0 < ida), arrived.partition_point(|e| e.0 .0 <= ida))
+                };
+                Cursor { k, end, ak, a_end }
+            }
         }
     }
 
     /// The history of the pair of particle ids (ida, idb), looked for from
-    /// `cursor` on (a row's pairs come in order of partner id, so the cursor
-    /// only moves on): zero where there is none.
+    /// the cursor on (a row's pairs come in order of partner id, so the
+    /// cursor only moves on): zero where there is none.
     #[inline(always)]
-    fn find(&self, ids: &[u64], cursor: &mut usize, end: usize, ida: u64, idb: u64) -> Hist {
+    fn find(&self, ids: &[u64], c: &mut Cursor, ida: u64, idb: u64) -> Hist {
+        /// The old row's entry of partner `idb` (partners' ids `ids`), from `c.k` on.
+        #[inline(always)]
+        fn in_row(ids: &[u64], pairs: &[(u32, u32)], hist: &[Vec3], roll: &[Vec3], c: &mut Cursor, idb: u64) -> Hist {
+            while c.k < c.end && ids[pairs[c.k].1 as usize] < idb {
+                c.k += 1;
+            }
+            if c.k < c.end && ids[pairs[c.k].1 as usize] == idb {
+                Hist::kept_at(hist, roll, c.k)
+            } else {
+                Hist::ZERO
+            }
+        }
         match self {
             OldPairs::Keyed { pairs, .. } => {
                 let key = (ida, idb);
-                while *cursor < end && pairs[*cursor].0 < key {
-                    *cursor += 1;
+                while c.k < c.end && pairs[c.k].0 < key {
+                    c.k += 1;
                 }
-                if *cursor < end && pairs[*cursor].0 == key {
-                    pairs[*cursor].1
+                if c.k < c.end && pairs[c.k].0 == key {
+                    pairs[c.k].1
                 } else {
                     Hist::ZERO
                 }
             }
-            OldPairs::Rows { pairs, hist, roll, .. } => {
-                while *cursor < end && ids[pairs[*cursor].1 as usize] < idb {
-                    *cursor += 1;
+            OldPairs::Rows { pairs, hist, roll, .. } => in_row(ids, pairs, hist, roll, c, idb),
+            OldPairs::Mapped { old_ids, pairs, hist, roll, arrived, .. } => {
+                let h = in_row(old_ids, pairs, hist, roll, c, idb);
+                if !h.is_zero() || c.ak == c.a_end {
+                    return h;
                 }
-                if *cursor < end && ids[pairs[*cursor].1 as usize] == idb {
-                    Hist::kept_at(hist, roll, *cursor)
+                while c.ak < c.a_end && arrived[c.ak].0 .1 < idb {
+                    c.ak += 1;
+                }
+                if c.ak < c.a_end && arrived[c.ak].0 .1 == idb {
+                    arrived[c.ak].1
                 } else {
                     Hist::ZERO
                 }
@@ -1049,9 +1179,9 @@ impl Rows<'_> {
             row.sort_unstable();
             let ida = p.id[a];
             // a's old pairs are one run, in the row's order
-            let (mut cursor, old_end) = old.run(a);
+            let mut cursor = old.run(a, ida);
             for (k, &(idb, b)) in places.zip(row.iter()) {
-                let h = old.find(&p.id, &mut cursor, old_end, ida, idb);
+                let h = old.find(&p.id, &mut cursor, ida, idb);
                 self.pairs[k] = (a as u32, b);
                 self.hist[k] = h.shear;
                 if rolling {
@@ -1493,6 +1623,15 @@ mod tests {
         let floor = Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, 0.004), normal: Vec3::z() }), 0);
         let walls = [floor];
         let bits = |v: &[Vec3]| v.iter().map(|x| x.map(f64::to_bits)).collect::<Vec<_>>();
+        // the same pairs and wall candidates with the same history, bit for bit
+        let same = |own: &NeighborList, keyed: &NeighborList, what: &str| {
+            assert_eq!(own.pairs, keyed.pairs);
+            assert_eq!(bits(&own.pair_hist), bits(&keyed.pair_hist), "{what}");
+            assert_eq!(bits(&own.pair_roll), bits(&keyed.pair_roll), "{what}");
+            assert_eq!(own.wall_feat, keyed.wall_feat);
+            assert_eq!(bits(&own.wall_hist), bits(&keyed.wall_hist), "{what}");
+            assert_eq!(bits(&own.wall_roll), bits(&keyed.wall_roll), "{what}");
+        };
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
         for (rolling, threaded) in [(false, false), (true, false), (false, true), (true, true)] {
             let mut p = Particles::default();
@@ -1537,16 +1676,49 @@ mod tests {
                 });
                 let same_places = std::ptr::eq(q, &p);
                 assert!(own.pairs.len() > 10_000 && own.wall_feat.len() > 500);
-                assert_eq!(own.pairs, keyed.pairs);
-                assert_eq!(bits(&own.pair_hist), bits(&keyed.pair_hist), "rolling {rolling}, same places {same_places}");
-                assert_eq!(bits(&own.pair_roll), bits(&keyed.pair_roll));
-                assert_eq!(own.wall_feat, keyed.wall_feat);
-                assert_eq!(bits(&own.wall_hist), bits(&keyed.wall_hist));
-                assert_eq!(bits(&own.wall_roll), bits(&keyed.wall_roll));
+                same(&own, &keyed, &format!("rolling {rolling}, same places {same_places}"));
                 // some history came along
                 assert!(own.pair_hist.iter().filter(|h| **h != Vec3::zeros()).count() > 1_000);
                 assert!(own.wall_hist.iter().filter(|h| **h != Vec3::zeros()).count() > 50);
             }
+            // particles that arrive (every tenth id: not in the last build)
+            // with history of their own (`Carry::OwnAnd`): as the keyed
+            // history of those that stay merged with what arrived
+            let stay: Vec<usize> = (0..p.len()).filter(|&i| p.id[i] % 10 != 0).collect();
+            let mut old_p = p.clone();
+            old_p.permute(&stay);
+            let mut old = NeighborList::new(5e-4);
+            old.rolling_history = rolling;
+            old.threaded = threaded;
+            old.build(&old_p, &walls);
+            let mut full = old.clone();
+            full.build(&p, &walls);
+            for (nl, scale) in [(&mut old, 1.0), (&mut full, 3.0)] {
+                for v in [&mut nl.pair_hist, &mut nl.pair_roll, &mut nl.wall_hist, &mut nl.wall_roll] {
+                    for h in v.iter_mut() {
+                        *h = if next() < 0.5 { Vec3::new(next(), next(), next()) * scale } else { Vec3::zeros() };
+                    }
+                }
+            }
+            let mut arrived = full.take_history(&p);
+            arrived.pairs.retain(|((a, b), _)| a % 10 == 0 || b % 10 == 0);
+            arrived.walls.retain(|((a, _, _), _)| a % 10 == 0);
+            let mut merged = old.take_history(&old_p);
+            merged.merge(arrived.clone());
+            for x in p.pos.iter_mut() {
+                *x += Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 1e-3;
+            }
+            let (mut own, mut keyed) = (old.clone(), old.clone());
+            pool.install(|| {
+                own.build_with(&p, &walls, Carry::OwnAnd(&arrived));
+                keyed.build_with(&p, &walls, Carry::Keyed(&merged));
+            });
+            same(&own, &keyed, &format!("rolling {rolling}, arrivals"));
+            // both sources were read: values of the old list (below 1) and received (above 1)
+            let big = own.pair_hist.iter().filter(|h| h.x > 1.0).count();
+            let small = own.pair_hist.iter().filter(|h| h.x > 0.0 && h.x < 1.0).count();
+            assert!(big > 100 && small > 1_000, "{big} received, {small} kept");
+            assert!(own.wall_hist.iter().filter(|h| h.x > 1.0).count() > 5);
         }
     }
 

@@ -14,6 +14,14 @@ use crate::order::StorageOrder;
 use crate::particles::{Particles, Record};
 use serde::{Deserialize, Serialize};
 
+/// Where a list rebuilt after a migration takes its contact history from
+/// (see [`crate::neighbor::Carry`]).
+pub enum Carried {
+    Own,
+    Keyed(History),
+    OwnAnd(History),
+}
+
 /// What migrates with particles to one rank.
 #[derive(Serialize, Deserialize, Default)]
 pub(super) struct Migration {
@@ -96,17 +104,76 @@ impl Parallel {
 
     /// At a list rebuild: migrate the particles whose owner changed with their
     /// Gear derivatives and the contact history that involves them (read from
-    /// the current list by local index), then remake the ghosts. Returns the
-    /// history the new list must use, or `None` on one rank without ghosts:
-    /// the list then carries its history itself ([`crate::neighbor::Carry::Own`]).
-    pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> Option<History> {
+    /// the current list by local index), then remake the ghosts. Returns where
+    /// the new list takes its history from: on one rank without ghosts, the
+    /// list itself ([`Carried::Own`]); on several, the list itself and what
+    /// came with the particles that arrived ([`Carried::OwnAnd`]: only the
+    /// leavers' history is read out and sent); where periodic images hold an
+    /// id twice, the keyed history of every particle that stays, merged with
+    /// what arrived ([`Carried::Keyed`]).
+    pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> Carried {
         let (dest, mut out) = self.destinations(p);
-        let alone = self.size() == 1 && p.ghosts == 0;
-        let hist = if alone { History::default() } else { self.route_history(p, nl, &dest, &mut out) };
-        p.drop_ghosts();
-        self.pack_leaving(p, gear, &dest, &mut out);
-        let hist = self.exchange_owned(p, gear, hist, out, &dest);
-        (!alone).then_some(hist)
+        if self.size() == 1 && p.ghosts == 0 {
+            p.drop_ghosts();
+            self.pack_leaving(p, gear, &dest, &mut out);
+            self.exchange_owned(p, gear, History::default(), out, &dest);
+            return Carried::Own;
+        }
+        let n = p.owned();
+        let rows_fit = nl.row_start.len() == p.len() + 1 && nl.incident_start.len() == n + 1;
+        if p.image.is_empty() && rows_fit {
+            self.route_leaving(p, nl, &dest, &mut out);
+            p.drop_ghosts();
+            self.pack_leaving(p, gear, &dest, &mut out);
+            Carried::OwnAnd(self.exchange_owned(p, gear, History::default(), out, &dest))
+        } else {
+            let hist = self.route_history(p, nl, &dest, &mut out);
+            p.drop_ghosts();
+            self.pack_leaving(p, gear, &dest, &mut out);
+            Carried::Keyed(self.exchange_owned(p, gear, hist, out, &dest))
+        }
+    }
+
+    /// The contact history of the particles that leave, read from the list
+    /// (their rows, the pairs in which they are the higher id, and their
+    /// wall candidates) into the messages for their new owners: each pair
+    /// entry once for each rank other than this one that one of its
+    /// particles goes to, as [`Router`] sends them.
+    fn route_leaving(&self, p: &Particles, nl: &NeighborList, dest: &[usize], out: &mut [Migration]) {
+        let (me, n) = (self.rank(), p.owned());
+        let with_walls = n.min(nl.wall_start.len().saturating_sub(1));
+        for (i, &r) in dest.iter().enumerate() {
+            if r == me {
+                continue;
+            }
+            let hist = &mut out[r].hist;
+            for k in nl.row_start[i] as usize..nl.row_start[i + 1] as usize {
+                let h = nl.pair_entry(k);
+                if !h.is_zero() {
+                    hist.pairs.push(((p.id[i], p.id[nl.pairs[k].1 as usize]), h));
+                }
+            }
+            for &k in &nl.incident[nl.incident_start[i] as usize..nl.incident_start[i + 1] as usize] {
+                let a = nl.pairs[k as usize].0 as usize;
+                // sent with a where a goes to the same rank
+                if a < n && dest[a] == r {
+                    continue;
+                }
+                let h = nl.pair_entry(k as usize);
+                if !h.is_zero() {
+                    hist.pairs.push(((p.id[a], p.id[i]), h));
+                }
+            }
+            if i < with_walls {
+                for k in nl.wall_start[i] as usize..nl.wall_start[i + 1] as usize {
+                    let h = nl.wall_entry(k);
+                    if !h.is_zero() {
+                        let (w, f) = nl.wall_feat[k];
+                        hist.walls.push(((p.id[i], w, f), h));
+                    }
+                }
+            }
+        }
     }
 
     /// The contact history of the list's pairs and wall candidates by ids:

@@ -24,6 +24,7 @@ mod migration;
 
 pub use balance::{BalanceMode, BalanceSettings};
 pub use ghosts::image_shifts;
+pub use migration::Carried;
 use comm::Comm;
 use crate::dim::Vec3;
 use decomp::Decomposition;
