@@ -105,6 +105,32 @@ impl GearState {
         }
     }
 
+    /// Keep only the rows at places `keep` (increasing), as
+    /// `Particles::keep_places`.
+    pub fn keep_places(&mut self, keep: &[usize]) {
+        if !self.initialised {
+            return;
+        }
+        for a in self.r.iter_mut().chain(self.w.iter_mut()) {
+            for (j, &i) in keep.iter().enumerate() {
+                a[j] = a[i];
+            }
+            a.truncate(keep.len());
+        }
+    }
+
+    /// Add one particle's derivatives at the end (as `get` returns them;
+    /// none, for a particle inserted: zeros).
+    pub fn push(&mut self, row: &[Vec3]) {
+        if !self.initialised {
+            return;
+        }
+        for k in 0..6 {
+            self.r[k].push(row.get(k).copied().unwrap_or_else(Vec3::zeros));
+            self.w[k].push(row.get(6 + k).copied().unwrap_or_else(Vec3::zeros));
+        }
+    }
+
     /// Set the derivatives from the particles' state and current forces.
     pub fn init(&mut self, p: &Particles, dt: f64, dim: Dimension) {
         let n = p.owned();

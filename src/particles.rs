@@ -228,6 +228,23 @@ impl Particles {
     }
 
     /// Reorder (or select) particles: entry k becomes old entry perm[k]. Ghosts are dropped.
+    /// Keep only the particles at places `keep` (increasing), in that order,
+    /// moved down in place (no ghosts).
+    pub fn keep_places(&mut self, keep: &[usize]) {
+        debug_assert!(keep.windows(2).all(|w| w[0] < w[1]));
+        self.ghosts = 0;
+        self.image.clear();
+        macro_rules! keep {
+            ($($f:ident),*) => { $(
+                for (j, &i) in keep.iter().enumerate() {
+                    self.$f[j] = self.$f[i];
+                }
+                self.$f.truncate(keep.len());
+            )* };
+        }
+        keep!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
+    }
+
     pub fn permute(&mut self, perm: &[usize]) {
         self.ghosts = 0;
         self.image.clear();

@@ -258,7 +258,7 @@ impl Parallel {
             add.walls.extend(m.hist.walls);
         }
         if dest.iter().any(|&d| d != me) || !arrived.is_empty() {
-            merge_arrivals(p, gear, dest, me, arrived);
+            merge_arrivals(p, gear, dest, me, arrived, self.order == StorageOrder::Id);
             if !add.pairs.is_empty() || !add.walls.is_empty() {
                 add.normalise();
                 hist.merge(add);
@@ -302,10 +302,24 @@ impl Parallel {
     }
 }
 
-/// Merge the particles that stay with the arrivals (sorted by id here); in id
-/// order if the staying ones are (`reorder` then sets the storage order).
-fn merge_arrivals(p: &mut Particles, gear: &mut GearState, dest: &[usize], me: usize, mut arrived: Vec<(Record, Vec<Vec3>)>) {
+/// Merge the particles that stay with the arrivals (sorted by id here): in id
+/// order where `by_id` (and the staying ones are), else the staying ones
+/// moved down in place and the arrivals after them (no result depends on
+/// the storage order; `reorder` sets it).
+fn merge_arrivals(p: &mut Particles, gear: &mut GearState, dest: &[usize], me: usize, mut arrived: Vec<(Record, Vec<Vec3>)>, by_id: bool) {
     arrived.sort_by_key(|a| a.0.id);
+    if !by_id {
+        if dest.iter().any(|&d| d != me) {
+            let keep: Vec<usize> = (0..p.len()).filter(|&i| dest[i] == me).collect();
+            p.keep_places(&keep);
+            gear.keep_places(&keep);
+        }
+        for (r, row) in &arrived {
+            p.push_record(r);
+            gear.push(row);
+        }
+        return;
+    }
     let mut q = Particles::default();
     let mut rows: Vec<Vec<Vec3>> = Vec::new();
     let mut k = 0;
