@@ -641,11 +641,66 @@ impl NeighborList {
     }
 
     /// The pairs in which each owned particle is the higher id, each
-    /// particle's in order of partner id (`incident`; a counting sort by
-    /// particle, then a sort within each).
+    /// particle's in order of partner id (`incident`): a counting sort by
+    /// particle of the rows taken in order of their particles' ids, so each
+    /// particle's pairs come in order of partner id with no sort; where an id
+    /// is held twice (periodic images), a counting sort of the list, then a
+    /// sort within each particle's pairs.
     fn build_incident(&mut self, p: &Particles) {
+        let threaded = self.threaded && p.owned() > 2 * ROW_BLOCK;
+        match IdIndex::new(&p.id).into_order() {
+            Some(order) => self.incident_by_rows(p, &order, threaded),
+            None => self.incident_sorted(p, threaded),
+        }
+        // a new list starts with no pair touching; the results' zeros are
+        // written by the first sweep as it passes (no pass of its own)
+        fill_with(&mut self.pair_touch, self.pairs.len(), false, threaded);
+        sized(&mut self.pair_out, self.pairs.len(), PairOut::default());
+        self.pair_out_clean = false;
+    }
+
+    /// `incident` from the rows in order of their particles' ids (`order`:
+    /// the places in order of id), as `counting_sort` does it on threads:
+    /// each thread counts, then writes, the particles of its own range of
+    /// places, scanning every row.
+    fn incident_by_rows(&mut self, p: &Particles, order: &[u32], threaded: bool) {
         let n_own = p.owned();
-        let threaded = self.threaded && n_own > 2 * ROW_BLOCK;
+        let (pairs, rows) = (&self.pairs, &self.row_start);
+        let parts = if threaded { rayon::current_num_threads().clamp(1, n_own.max(1)) } else { 1 };
+        key_starts(&mut self.incident_start, n_own, parts, |lo: usize, counts: &mut [u32]| {
+            for &(_, b) in pairs {
+                if let Some(c) = counts.get_mut((b as usize).wrapping_sub(lo)) {
+                    *c += 1;
+                }
+            }
+        });
+        let start = &self.incident_start[..];
+        sized(&mut self.incident, start[n_own] as usize, 0);
+        // the pairs of particles `keys` into `part` (the places `start[keys.start]..`)
+        let scatter = |keys: std::ops::Range<usize>, part: &mut [u32]| {
+            let base = start[keys.start];
+            let mut fill: Vec<u32> = start[keys.clone()].iter().map(|&s| s - base).collect();
+            for &a in order {
+                let a = a as usize;
+                for k in rows[a] as usize..rows[a + 1] as usize {
+                    if let Some(f) = fill.get_mut((pairs[k].1 as usize).wrapping_sub(keys.start)) {
+                        part[*f as usize] = k as u32;
+                        *f += 1;
+                    }
+                }
+            }
+        };
+        if parts == 1 {
+            scatter(0..n_own, &mut self.incident);
+        } else {
+            key_range_jobs(start, n_own, parts, &mut self.incident).into_par_iter().for_each(|(keys, part)| scatter(keys, part));
+        }
+    }
+
+    /// `incident` by a counting sort of the list, then a sort of each
+    /// particle's pairs by partner id (ids held twice).
+    fn incident_sorted(&mut self, p: &Particles, threaded: bool) {
+        let n_own = p.owned();
         // (partner id, pair), so that sorting needs no lookups
         let (start, keyed) = (&mut self.incident_start, &mut self.incident_keyed);
         let own = |&(_, b): &(u32, u32)| ((b as usize) < n_own).then_some(b as usize);
@@ -674,11 +729,6 @@ impl NeighborList {
         } else {
             self.incident.extend(keyed.iter().map(|x| x.1));
         }
-        // a new list starts with no pair touching; the results' zeros are
-        // written by the first sweep as it passes (no pass of its own)
-        fill_with(&mut self.pair_touch, self.pairs.len(), false, threaded);
-        sized(&mut self.pair_out, self.pairs.len(), PairOut::default());
-        self.pair_out_clean = false;
     }
 
     /// Every owned particle's wall candidates `(wall, feature)` within reach,
@@ -1269,10 +1319,7 @@ fn counting_sort<T: Sync, O: Copy + Send + Sync>(
     threaded: bool,
 ) {
     let parts = if threaded { rayon::current_num_threads().clamp(1, n_keys.max(1)) } else { 1 };
-    start.clear();
-    start.resize(n_keys + 1, 0);
-    // key k's count into start[k + 1], for the keys `lo..lo + counts.len()`
-    let count = |lo: usize, counts: &mut [u32]| {
+    key_starts(start, n_keys, parts, |lo: usize, counts: &mut [u32]| {
         for c in chunks {
             for x in c.iter() {
                 if let Some(n) = key(x).and_then(|k| counts.get_mut(k.wrapping_sub(lo))) {
@@ -1280,16 +1327,7 @@ fn counting_sort<T: Sync, O: Copy + Send + Sync>(
                 }
             }
         }
-    };
-    if parts == 1 {
-        count(0, &mut start[1..]);
-    } else {
-        let per = n_keys.div_ceil(parts);
-        start[1..].par_chunks_mut(per).enumerate().for_each(|(t, counts)| count(t * per, counts));
-    }
-    for k in 0..n_keys {
-        start[k + 1] += start[k];
-    }
+    });
     let total = start[n_keys] as usize;
     fill_with(out, total, zero, parts > 1);
     let start = &start[..];
@@ -1311,19 +1349,43 @@ fn counting_sort<T: Sync, O: Copy + Send + Sync>(
     if parts == 1 {
         scatter(0..n_keys, out);
     } else {
-        // key ranges of about `total / parts` items each
-        let cuts: Vec<usize> = (0..=parts)
-            .map(|t| if t == parts { n_keys } else { start.partition_point(|&s| (s as usize) < t * total / parts).min(n_keys) })
-            .collect();
-        let mut jobs = Vec::with_capacity(parts);
-        let mut rest = &mut out[..];
-        for w in cuts.windows(2) {
-            let (part, r) = std::mem::take(&mut rest).split_at_mut((start[w[1]] - start[w[0]]) as usize);
-            jobs.push((w[0]..w[1], part));
-            rest = r;
-        }
-        jobs.into_par_iter().for_each(|(keys, part)| scatter(keys, part));
+        key_range_jobs(start, n_keys, parts, out).into_par_iter().for_each(|(keys, part)| scatter(keys, part));
     }
+}
+
+/// The starts of a counting sort's keys `0..n_keys` (`start[k]..start[k + 1]`
+/// for key k): `count(lo, counts)` adds each item of a key `lo + j` to
+/// `counts[j]`, for `parts` equal ranges of keys at once on the pool's threads.
+fn key_starts(start: &mut Vec<u32>, n_keys: usize, parts: usize, count: impl Fn(usize, &mut [u32]) + Sync) {
+    start.clear();
+    start.resize(n_keys + 1, 0);
+    if parts == 1 {
+        count(0, &mut start[1..]);
+    } else {
+        let per = n_keys.div_ceil(parts).max(1);
+        start[1..].par_chunks_mut(per).enumerate().for_each(|(t, counts)| count(t * per, counts));
+    }
+    for k in 0..n_keys {
+        start[k + 1] += start[k];
+    }
+}
+
+/// Keys `0..n_keys` cut into `parts` ranges holding about equal numbers of
+/// items (key k's items are `out[start[k]..start[k + 1]]`), each with its part
+/// of `out`, for the threads of a counting sort.
+fn key_range_jobs<'a, O>(start: &[u32], n_keys: usize, parts: usize, out: &'a mut [O]) -> Vec<(std::ops::Range<usize>, &'a mut [O])> {
+    let total = start[n_keys] as usize;
+    let cuts: Vec<usize> = (0..=parts)
+        .map(|t| if t == parts { n_keys } else { start.partition_point(|&s| (s as usize) < t * total / parts).min(n_keys) })
+        .collect();
+    let mut jobs = Vec::with_capacity(parts);
+    let mut rest = out;
+    for w in cuts.windows(2) {
+        let (part, r) = std::mem::take(&mut rest).split_at_mut((start[w[1]] - start[w[0]]) as usize);
+        jobs.push((w[0]..w[1], part));
+        rest = r;
+    }
+    jobs
 }
 
 /// The particles counting-sorted into cells (a quarter of the interaction
