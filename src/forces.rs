@@ -14,7 +14,7 @@ use crate::contact::{dispatch, ContactForce, ContactGeom, ContactLaw, ContactOpt
 use crate::dim::Vec3;
 use crate::fixed::from_fixed;
 use crate::material::{PairMaterial, PairTable};
-use crate::neighbor::{row_blocks, NeighborList, PairOut, ROW_BLOCK};
+use crate::neighbor::{row_blocks_of, NeighborList, PairOut, ROW_BLOCK};
 use crate::particles::Particles;
 use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
 use rayon::prelude::*;
@@ -206,13 +206,17 @@ fn pair_forces<L: ContactLaw>(
         let rows = Rows { first: 0, hist, roll, touch, out, force: &mut force, torque: &mut torque };
         if rolling { ev.rows::<true>(rows, start, clean) } else { ev.rows::<false>(rows, start, clean) }
     } else {
-        let roll_blocks = if rolling { row_blocks(roll, start, n) } else { Vec::new() };
+        // at most ROW_BLOCK rows a block, and at least eight blocks a thread
+        // where the system is small (a few thousand particles in three
+        // blocks would leave a thread idle a third of the sweep)
+        let block = (n / (8 * rayon::current_num_threads())).clamp(MIN_LEN, ROW_BLOCK);
+        let roll_blocks = if rolling { row_blocks_of(roll, start, n, block) } else { Vec::new() };
         let mut roll_blocks = roll_blocks.into_iter();
-        let blocks: Vec<_> = row_blocks(hist, start, n)
+        let blocks: Vec<_> = row_blocks_of(hist, start, n, block)
             .into_iter()
-            .zip(row_blocks(touch, start, n))
-            .zip(row_blocks(out, start, n))
-            .zip(force.chunks_mut(ROW_BLOCK).zip(torque.chunks_mut(ROW_BLOCK)))
+            .zip(row_blocks_of(touch, start, n, block))
+            .zip(row_blocks_of(out, start, n, block))
+            .zip(force.chunks_mut(block).zip(torque.chunks_mut(block)))
             .map(|((((range, hist), (_, touch)), (_, out)), (force, torque))| {
                 let roll: &mut [Vec3] = roll_blocks.next().map_or(&mut [], |x| x.1);
                 Rows { first: range.start, hist, roll, touch, out, force, torque }

@@ -1157,10 +1157,21 @@ impl IdIndex {
 /// `rows[start[a]..start[a + 1]]`), cut into blocks of `ROW_BLOCK` particles,
 /// each with its own part of `rows`, for the threads.
 pub(crate) fn row_blocks<'a, T>(rows: &'a mut [T], start: &[u32], n: usize) -> Vec<(std::ops::Range<usize>, &'a mut [T])> {
-    let mut parts = Vec::with_capacity(n.div_ceil(ROW_BLOCK));
+    row_blocks_of(rows, start, n, ROW_BLOCK)
+}
+
+/// As [`row_blocks`], blocks of `block` particles.
+pub(crate) fn row_blocks_of<'a, T>(
+    rows: &'a mut [T],
+    start: &[u32],
+    n: usize,
+    block: usize,
+) -> Vec<(std::ops::Range<usize>, &'a mut [T])> {
+    let block = block.max(1);
+    let mut parts = Vec::with_capacity(n.div_ceil(block));
     let mut rest = rows;
-    for b0 in (0..n).step_by(ROW_BLOCK) {
-        let b1 = (b0 + ROW_BLOCK).min(n);
+    for b0 in (0..n).step_by(block) {
+        let b1 = (b0 + block).min(n);
         let (part, r) = std::mem::take(&mut rest).split_at_mut((start[b1] - start[b0]) as usize);
         parts.push((b0..b1, part));
         rest = r;
