@@ -119,15 +119,16 @@ impl GearState {
         }
     }
 
-    /// Add one particle's derivatives at the end (as `get` returns them;
-    /// none, for a particle inserted: zeros).
+    /// Add one particle's derivatives at the end (as `get` returns them:
+    /// every particle has them once they are set, as a case with Gear
+    /// inserts none; `set_all` takes the rows alike).
     pub fn push(&mut self, row: &[Vec3]) {
         if !self.initialised {
             return;
         }
         for k in 0..6 {
-            self.r[k].push(row.get(k).copied().unwrap_or_else(Vec3::zeros));
-            self.w[k].push(row.get(6 + k).copied().unwrap_or_else(Vec3::zeros));
+            self.r[k].push(row[k]);
+            self.w[k].push(row[6 + k]);
         }
     }
 

@@ -754,11 +754,11 @@ impl NeighborList {
             image: std::mem::take(&mut self.wall_image),
         };
         all.clear();
-        let rows = OldWalls::Rows { start: &self.wall_start, feat: &self.wall_feat, hist: &self.wall_hist, roll: &self.wall_roll };
+        let rows = WallRowsThen { start: &self.wall_start, feat: &self.wall_feat, hist: &self.wall_hist, roll: &self.wall_roll };
         let old = match (old_wall, mapped) {
             (Some(keyed), _) => OldWalls::Keyed(keyed),
-            (None, Some((map, arrived))) => OldWalls::Mapped { map, rows: Box::new(rows), arrived: &arrived.walls },
-            (None, None) => rows,
+            (None, Some((map, arrived))) => OldWalls::Mapped { map, rows, arrived: &arrived.walls },
+            (None, None) => OldWalls::Rows(rows),
         };
         let find = WallFind { p, walls, old, skin: self.skin, period: self.period, rolling: self.rolling_history };
         if !self.threaded || n_own <= 2 * ROW_BLOCK {
@@ -887,10 +887,34 @@ enum OldWalls<'a> {
     /// Keyed by (id, wall, feature) and sorted.
     Keyed(&'a [((u64, u16, u32), Hist)]),
     /// The last build's candidates, of the same particles in the same places.
-    Rows { start: &'a [u32], feat: &'a [(u16, u32)], hist: &'a [Vec3], roll: &'a [Vec3] },
-    /// The last build's candidates (`rows`) at each particle's place then
-    /// (`map`, `u32::MAX` for none), else those received (`Carry::OwnAnd`).
-    Mapped { map: &'a [u32], rows: Box<OldWalls<'a>>, arrived: &'a [((u64, u16, u32), Hist)] },
+    Rows(WallRowsThen<'a>),
+    /// The last build's candidates at each particle's place then (`map`,
+    /// `u32::MAX` for none), else those received (`Carry::OwnAnd`).
+    Mapped { map: &'a [u32], rows: WallRowsThen<'a>, arrived: &'a [((u64, u16, u32), Hist)] },
+}
+
+/// The last build's wall candidates (as the `NeighborList` fields of the same names).
+struct WallRowsThen<'a> {
+    start: &'a [u32],
+    feat: &'a [(u16, u32)],
+    hist: &'a [Vec3],
+    roll: &'a [Vec3],
+}
+
+impl WallRowsThen<'_> {
+    /// The history of the contact of the particle at place i then with
+    /// feature `f` of wall `w`: zero where there is none.
+    #[inline(always)]
+    fn find(&self, i: usize, w: u16, f: u32) -> Hist {
+        if i + 1 >= self.start.len() {
+            return Hist::ZERO;
+        }
+        let places = self.start[i] as usize..self.start[i + 1] as usize;
+        match self.feat[places.clone()].iter().position(|&x| x == (w, f)) {
+            Some(j) => Hist::kept_at(self.hist, self.roll, places.start + j),
+            None => Hist::ZERO,
+        }
+    }
 }
 
 impl OldWalls<'_> {
@@ -898,22 +922,14 @@ impl OldWalls<'_> {
     /// wall `w`: zero where there is none.
     #[inline(always)]
     fn find(&self, id: u64, i: usize, w: u16, f: u32) -> Hist {
+        let keyed = |old: &[((u64, u16, u32), Hist)]| old.binary_search_by_key(&(id, w, f), |x| x.0).map(|k| old[k].1).unwrap_or(Hist::ZERO);
         match self {
-            OldWalls::Keyed(old) => old.binary_search_by_key(&(id, w, f), |x| x.0).map(|k| old[k].1).unwrap_or(Hist::ZERO),
-            OldWalls::Rows { start, feat, hist, roll } => {
-                if i + 1 >= start.len() {
-                    return Hist::ZERO;
-                }
-                let places = start[i] as usize..start[i + 1] as usize;
-                match feat[places.clone()].iter().position(|&x| x == (w, f)) {
-                    Some(j) => Hist::kept_at(hist, roll, places.start + j),
-                    None => Hist::ZERO,
-                }
-            }
+            OldWalls::Keyed(old) => keyed(old),
+            OldWalls::Rows(rows) => rows.find(i, w, f),
             OldWalls::Mapped { map, rows, arrived } => {
-                let h = if map[i] == u32::MAX { Hist::ZERO } else { rows.find(id, map[i] as usize, w, f) };
+                let h = if map[i] == u32::MAX { Hist::ZERO } else { rows.find(map[i] as usize, w, f) };
                 if h.is_zero() && !arrived.is_empty() {
-                    OldWalls::Keyed(arrived).find(id, i, w, f)
+                    keyed(arrived)
                 } else {
                     h
                 }

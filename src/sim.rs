@@ -31,7 +31,7 @@ use crate::neighbor::{Carry, Domain, History, Moved, NeighborList};
 use crate::fixed::{from_fixed, to_fixed};
 use crate::parallel::comm::Comm;
 use crate::parallel::decomp::{choose_grid, Decomposition};
-use crate::parallel::{BalanceSettings, Carried, Parallel};
+use crate::parallel::{BalanceSettings, Parallel};
 use crate::particles::{ParticleInit, Particles, Record};
 use std::rc::Rc;
 use std::time::Instant;
@@ -525,11 +525,7 @@ impl Simulation {
             }
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
             // one rank: the list carries its own history
-            let carry = match &h {
-                Carried::Own => Carry::Own,
-                Carried::Keyed(h) => Carry::Keyed(h),
-                Carried::OwnAnd(h) => Carry::OwnAnd(h),
-            };
+            let carry = h.carry();
             let migrated = t.elapsed().as_secs_f64();
             self.par.timers.migrate += migrated;
             self.par.timers.comm_s += migrated;

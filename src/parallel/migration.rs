@@ -9,7 +9,7 @@
 use super::{bin, unbin, Parallel};
 use crate::dim::Vec3;
 use crate::integrate::GearState;
-use crate::neighbor::{Hist, History, NeighborList};
+use crate::neighbor::{Carry, Hist, History, NeighborList};
 use crate::order::StorageOrder;
 use crate::particles::{Particles, Record};
 use serde::{Deserialize, Serialize};
@@ -20,6 +20,17 @@ pub enum Carried {
     Own,
     Keyed(History),
     OwnAnd(History),
+}
+
+impl Carried {
+    /// The build's `Carry` of it.
+    pub fn carry(&self) -> Carry<'_> {
+        match self {
+            Carried::Own => Carry::Own,
+            Carried::Keyed(h) => Carry::Keyed(h),
+            Carried::OwnAnd(h) => Carry::OwnAnd(h),
+        }
+    }
 }
 
 /// What migrates with particles to one rank.
@@ -113,24 +124,25 @@ impl Parallel {
     /// what arrived ([`Carried::Keyed`]).
     pub fn migrate_from_list(&mut self, p: &mut Particles, gear: &mut GearState, nl: &NeighborList) -> Carried {
         let (dest, mut out) = self.destinations(p);
-        if self.size() == 1 && p.ghosts == 0 {
-            p.drop_ghosts();
-            self.pack_leaving(p, gear, &dest, &mut out);
-            self.exchange_owned(p, gear, History::default(), out, &dest);
-            return Carried::Own;
-        }
-        let n = p.owned();
-        let rows_fit = nl.row_start.len() == p.len() + 1 && nl.incident_start.len() == n + 1;
-        if p.image.is_empty() && rows_fit {
+        let alone = self.size() == 1 && p.ghosts == 0;
+        let rows_fit = nl.row_start.len() == p.len() + 1 && nl.incident_start.len() == p.owned() + 1;
+        let own_rows = alone || (p.image.is_empty() && rows_fit);
+        // the history the list cannot find in itself
+        let hist = if alone {
+            History::default()
+        } else if own_rows {
             self.route_leaving(p, nl, &dest, &mut out);
-            p.drop_ghosts();
-            self.pack_leaving(p, gear, &dest, &mut out);
-            Carried::OwnAnd(self.exchange_owned(p, gear, History::default(), out, &dest))
+            History::default()
         } else {
-            let hist = self.route_history(p, nl, &dest, &mut out);
-            p.drop_ghosts();
-            self.pack_leaving(p, gear, &dest, &mut out);
-            Carried::Keyed(self.exchange_owned(p, gear, hist, out, &dest))
+            self.route_history(p, nl, &dest, &mut out)
+        };
+        p.drop_ghosts();
+        self.pack_leaving(p, gear, &dest, &mut out);
+        let hist = self.exchange_owned(p, gear, hist, out, &dest);
+        match (alone, own_rows) {
+            (true, _) => Carried::Own,
+            (false, true) => Carried::OwnAnd(hist),
+            (false, false) => Carried::Keyed(hist),
         }
     }
 
