@@ -8,6 +8,16 @@ use crate::dim::Vec3;
 use crate::fixed::{from_fixed, to_fixed};
 use serde::{Deserialize, Serialize};
 
+/// `$m!(a, b, ...)` over every per-particle array of [`Particles`] but
+/// `image` (periodic domains only): the one list the operations on whole
+/// particles (drop the ghosts, keep some, reorder) go through, so an array
+/// added to `Particles` is added here once.
+macro_rules! every_array {
+    ($m:ident) => {
+        $m!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle)
+    };
+}
+
 /// Spheres (3D) or discs (2D), one entry per particle in each array.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Particles {
@@ -166,7 +176,7 @@ impl Particles {
         macro_rules! cut {
             ($($f:ident),*) => { $( self.$f.truncate(n); )* };
         }
-        cut!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
+        every_array!(cut);
         self.image.truncate(n.min(self.image.len()));
         self.ghosts = 0;
     }
@@ -242,7 +252,7 @@ impl Particles {
                 self.$f.truncate(keep.len());
             )* };
         }
-        keep!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
+        every_array!(keep);
     }
 
     pub fn permute(&mut self, perm: &[usize]) {
@@ -251,7 +261,7 @@ impl Particles {
         macro_rules! permute {
             ($($f:ident),*) => { $( self.$f = perm.iter().map(|&i| self.$f[i]).collect(); )* };
         }
-        permute!(id, pos, vel, omega, force, torque, radius, mass, inv_mass, inv_inertia, material, clump, ellipse, minor, angle);
+        every_array!(permute);
     }
 
     /// The particles as initial conditions (for writing a cloud file), in order of id.
