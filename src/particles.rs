@@ -237,7 +237,6 @@ impl Particles {
         self.permute(&perm);
     }
 
-    /// Reorder (or select) particles: entry k becomes old entry perm[k]. Ghosts are dropped.
     /// Keep only the particles at places `keep` (increasing), in that order,
     /// moved down in place (no ghosts).
     pub fn keep_places(&mut self, keep: &[usize]) {
@@ -255,6 +254,7 @@ impl Particles {
         every_array!(keep);
     }
 
+    /// Reorder (or select) particles: entry k becomes old entry perm[k]. Ghosts are dropped.
     pub fn permute(&mut self, perm: &[usize]) {
         self.ghosts = 0;
         self.image.clear();
