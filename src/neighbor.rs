@@ -521,7 +521,11 @@ impl NeighborList {
         self.ids.clear();
         self.ids.extend_from_slice(&p.id);
         self.x_ref.clear();
-        self.x_ref.extend((0..p.owned()).map(|i| p.list_pos(i, &self.period)));
+        if self.threaded {
+            self.x_ref.par_extend((0..p.owned()).into_par_iter().with_min_len(PASS_BLOCK).map(|i| p.list_pos(i, &self.period)));
+        } else {
+            self.x_ref.extend((0..p.owned()).map(|i| p.list_pos(i, &self.period)));
+        }
         self.wall_moved = 0.0;
         self.builds += 1;
     }
@@ -538,7 +542,8 @@ impl NeighborList {
         if index.twice {
             return None;
         }
-        Some(p.id.iter().map(|&id| index.get(id).map_or(u32::MAX, |i| i as u32)).collect())
+        let place = |&id: &u64| index.get(id).map_or(u32::MAX, |i| i as u32);
+        Some(if self.threaded { p.id.par_iter().with_min_len(PASS_BLOCK).map(place).collect() } else { p.id.iter().map(place).collect() })
     }
 
     /// The pairs within reach (`id_a < id_b`, sorted), each with its history
@@ -660,41 +665,71 @@ impl NeighborList {
     }
 
     /// `incident` from the rows in order of their particles' ids (`order`:
-    /// the places in order of id), as `counting_sort` does it on threads:
-    /// each thread counts, then writes, the particles of its own range of
-    /// places, scanning every row.
+    /// the places in order of id), as `counting_sort` does it: on threads,
+    /// each counts, then writes, the pairs of the rows of its own run of
+    /// `order` (a range of ids: the counts read the rows in storage order,
+    /// skipping the others' rows).
     fn incident_by_rows(&mut self, p: &Particles, order: &[u32], threaded: bool) {
         let n_own = p.owned();
         let (pairs, rows) = (&self.pairs, &self.row_start);
-        let parts = if threaded { rayon::current_num_threads().clamp(1, n_own.max(1)) } else { 1 };
-        key_starts(&mut self.incident_start, n_own, parts, |lo: usize, counts: &mut [u32]| {
-            for &(_, b) in pairs {
-                if let Some(c) = counts.get_mut((b as usize).wrapping_sub(lo)) {
-                    *c += 1;
+        let parts = if threaded { rayon::current_num_threads().clamp(1, order.len().max(1)) } else { 1 };
+        let per = order.len().div_ceil(parts).max(1);
+        let runs: Vec<&[u32]> = order.chunks(per).collect();
+        // the rows of ids from `lo` up to (not including) `hi`, counted by the higher id's particle
+        let count = |lo: u64, hi: u64| {
+            let mut counts = vec![0u32; n_own];
+            for (a, &id) in p.id.iter().enumerate() {
+                if (lo..hi).contains(&id) {
+                    for &(_, b) in &pairs[rows[a] as usize..rows[a + 1] as usize] {
+                        if let Some(c) = counts.get_mut(b as usize) {
+                            *c += 1;
+                        }
+                    }
                 }
             }
-        });
-        let start = &self.incident_start[..];
-        sized(&mut self.incident, start[n_own] as usize, 0);
-        // the pairs of particles `keys` into `part` (the places `start[keys.start]..`)
-        let scatter = |keys: std::ops::Range<usize>, part: &mut [u32]| {
-            let base = start[keys.start];
-            let mut fill: Vec<u32> = start[keys.clone()].iter().map(|&s| s - base).collect();
-            for &a in order {
+            counts
+        };
+        // the pairs of the rows of `run` into their places (`fill`: each particle's next)
+        let scatter = |run: &[u32], fill: &mut [u32], put: &mut dyn FnMut(usize, u32)| {
+            for &a in run {
                 let a = a as usize;
                 for k in rows[a] as usize..rows[a + 1] as usize {
-                    if let Some(f) = fill.get_mut((pairs[k].1 as usize).wrapping_sub(keys.start)) {
-                        part[*f as usize] = k as u32;
+                    if let Some(f) = fill.get_mut(pairs[k].1 as usize) {
+                        put(*f as usize, k as u32);
                         *f += 1;
                     }
                 }
             }
         };
-        if parts == 1 {
-            scatter(0..n_own, &mut self.incident);
-        } else {
-            key_range_jobs(start, n_own, parts, &mut self.incident).into_par_iter().for_each(|(keys, part)| scatter(keys, part));
+        if runs.len() <= 1 {
+            // one thread: the counts read the list in order
+            let start = &mut self.incident_start;
+            start.clear();
+            start.resize(n_own + 1, 0);
+            for &(_, b) in pairs.iter() {
+                if let Some(c) = start.get_mut(b as usize + 1).filter(|_| (b as usize) < n_own) {
+                    *c += 1;
+                }
+            }
+            for k in 0..n_own {
+                start[k + 1] += start[k];
+            }
+            sized(&mut self.incident, start[n_own] as usize, 0);
+            let mut fill = start[..n_own].to_vec();
+            let out = &mut self.incident;
+            scatter(order, &mut fill, &mut |i, k| out[i] = k);
+            return;
         }
+        let mut fill: Vec<Vec<u32>> = {
+            let first_id = |r: &[u32]| p.id[r[0] as usize];
+            let bounds: Vec<(u64, u64)> =
+                (0..runs.len()).map(|t| (if t == 0 { 0 } else { first_id(runs[t]) }, runs.get(t + 1).map_or(u64::MAX, |r| first_id(r)))).collect();
+            bounds.par_iter().map(|&(lo, hi)| count(lo, hi)).collect()
+        };
+        run_places(&mut fill, &mut self.incident_start, n_own);
+        sized(&mut self.incident, self.incident_start[n_own] as usize, 0);
+        let places = Places::of(&mut self.incident);
+        runs.par_iter().zip(fill.par_iter_mut()).for_each(|(run, fill)| scatter(run, fill, &mut |i, k| places.put(i, k)));
     }
 
     /// `incident` by a counting sort of the list, then a sort of each
@@ -771,16 +806,18 @@ impl NeighborList {
                     r
                 })
                 .collect();
-            for b in parts {
-                let base = all.feat.len() as u32;
+            // the blocks' rows end to end (the large arrays copied on the threads)
+            let mut base = 0;
+            for b in &parts {
                 all.start.extend(b.start.iter().map(|s| s + base));
-                all.feat.extend_from_slice(&b.feat);
-                all.hist.extend_from_slice(&b.hist);
-                all.roll.extend_from_slice(&b.roll);
-                all.inertia.extend_from_slice(&b.inertia);
-                all.owners.extend_from_slice(&b.owners);
-                all.image.extend_from_slice(&b.image);
+                base += b.feat.len() as u32;
             }
+            joined(&mut all.feat, parts.iter().map(|b| &b.feat[..]));
+            joined(&mut all.hist, parts.iter().map(|b| &b.hist[..]));
+            joined(&mut all.roll, parts.iter().map(|b| &b.roll[..]));
+            joined(&mut all.inertia, parts.iter().map(|b| &b.inertia[..]));
+            joined(&mut all.owners, parts.iter().map(|b| &b.owners[..]));
+            joined(&mut all.image, parts.iter().map(|b| &b.image[..]));
         }
         all.start.push(all.feat.len() as u32);
         // the last build's arrays are the next one's spare ones
@@ -840,20 +877,38 @@ impl WallFind<'_> {
         // plane, parallel to every periodic axis, meets each particle once)
         let periodic = self.period != Vec3::zeros();
         let shifts = crate::parallel::image_shifts(&self.period);
-        for i in range {
+        // a small mesh's triangles near each block of particles (which lie
+        // close together in storage order), by (wall, shift): each particle
+        // tests only those, the same candidates as testing every triangle
+        let mut near: Vec<(bool, Vec<u32>)> = vec![(false, Vec::new()); self.walls.len() * shifts.len()];
+        for i in range.clone() {
+            if (i - range.start).is_multiple_of(WALL_BLOCK) {
+                let block = i..(i + WALL_BLOCK).min(range.end);
+                let far = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+                let (lo, hi) = p.pos[block.clone()].iter().fold(far, |(lo, hi), x| (lo.inf(x), hi.sup(x)));
+                let r = p.radius[block].iter().cloned().fold(0.0, f64::max);
+                for (w, wall) in self.walls.iter().enumerate() {
+                    for (k, g) in shifts.iter().enumerate() {
+                        let s = crate::particles::image_shift(g, &self.period);
+                        let (is, list) = &mut near[w * shifts.len() + k];
+                        *is = wall.active && wall.near_box(&(lo + s), &(hi + s), r, self.skin, list);
+                    }
+                }
+            }
             out.start.push((out.feat.len() - base) as u32);
             let before = out.feat.len();
             for (w, wall) in self.walls.iter().enumerate() {
                 if !wall.active {
                     continue;
                 }
-                for g in &shifts {
+                for (k, g) in shifts.iter().enumerate() {
                     if *g != [0; 3] && matches!(wall.shape, crate::walls::Shape::Plane(_)) {
                         continue;
                     }
                     feats.clear();
                     let x = p.pos[i] + crate::particles::image_shift(g, &self.period);
-                    wall.candidates(&x, p.radius[i], self.skin, &mut feats);
+                    let (is, list) = &near[w * shifts.len() + k];
+                    wall.candidates_in(&x, p.radius[i], self.skin, is.then_some(&list[..]), &mut feats);
                     if feats.is_empty() {
                         continue;
                     }
@@ -1208,6 +1263,10 @@ const HIST_PREFETCH: usize = 8;
 /// displacement since the last build, the cell grid's bounding box and cells).
 const PASS_BLOCK: usize = 8192;
 
+/// Particles whose wall candidates among a small mesh's triangles are
+/// narrowed down at once (`WallFind::append`).
+const WALL_BLOCK: usize = 16;
+
 /// Particles a thread takes at once when the pairs are found on several threads.
 pub(crate) const ROW_BLOCK: usize = 2048;
 
@@ -1302,6 +1361,24 @@ fn in_blocks<T: Copy + Send + Sync>(
     out
 }
 
+/// `out` made `parts` laid end to end, copied on the pool's threads.
+fn joined<'a, T: Copy + Send + Sync + 'a>(out: &mut Vec<T>, parts: impl Iterator<Item = &'a [T]>) {
+    let parts: Vec<&[T]> = parts.collect();
+    let Some(&zero) = parts.iter().find_map(|p| p.first()) else {
+        out.clear();
+        return;
+    };
+    sized(out, parts.iter().map(|p| p.len()).sum(), zero);
+    let mut jobs = Vec::with_capacity(parts.len());
+    let mut rest = &mut out[..];
+    for part in parts {
+        let (s, r) = std::mem::take(&mut rest).split_at_mut(part.len());
+        jobs.push((s, part));
+        rest = r;
+    }
+    jobs.into_par_iter().for_each(|(s, part)| s.copy_from_slice(part));
+}
+
 /// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
 /// `v` of length `len`, its first places as they were (a build that writes
 /// every place needs no clearing pass over the arrays it reuses); new
@@ -1326,14 +1403,11 @@ fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: 
 /// items of one key in their order in `chunks`. Key k's places are
 /// `start[k]..start[k + 1]`.
 ///
-/// On several threads (`threaded`) the keys are cut into one range per
-/// thread: for the counts, equal ranges of keys; for the writes, ranges
-/// holding about equal numbers of items. Each thread scans every item and
-/// counts, then writes, only those whose key is in its range. So each thread
-/// writes its own part of `start` and of `out`, and every item lands in the
-/// place the serial sort gives it (a place depends only on the items before
-/// it). The scans are repeated on every thread, but they are sequential
-/// reads; the counts and writes, which miss the cache, are shared out.
+/// On several threads (`threaded`) the items are cut into one run per
+/// thread (`runs`), each counted by key on its thread; a key's items of run
+/// t go after its items of the runs before t (`run_places`), so each thread
+/// then writes its own run's items where the serial sort puts them. Each
+/// item is read twice in all, as on one thread, whatever the thread count.
 #[allow(clippy::too_many_arguments)]
 fn counting_sort<T: Sync, O: Copy + Send + Sync>(
     chunks: &[&[T]],
@@ -1345,74 +1419,131 @@ fn counting_sort<T: Sync, O: Copy + Send + Sync>(
     out: &mut Vec<O>,
     threaded: bool,
 ) {
-    let parts = if threaded { rayon::current_num_threads().clamp(1, n_keys.max(1)) } else { 1 };
-    key_starts(start, n_keys, parts, |lo: usize, counts: &mut [u32]| {
+    let key = |x: &T| key(x).filter(|&k| k < n_keys);
+    let parts = if threaded { rayon::current_num_threads().max(1) } else { 1 };
+    if parts == 1 {
+        start.clear();
+        start.resize(n_keys + 1, 0);
         for c in chunks {
             for x in c.iter() {
-                if let Some(n) = key(x).and_then(|k| counts.get_mut(k.wrapping_sub(lo))) {
+                if let Some(n) = key(x).and_then(|k| start.get_mut(k + 1)) {
                     *n += 1;
                 }
             }
         }
-    });
-    let total = start[n_keys] as usize;
-    fill_with(out, total, zero, parts > 1);
-    let start = &start[..];
-    // the items of keys `keys` into `part`, the places `start[keys.start]..`
-    let scatter = |keys: std::ops::Range<usize>, part: &mut [O]| {
-        let base = start[keys.start];
-        let mut fill: Vec<u32> = start[keys.clone()].iter().map(|&s| s - base).collect();
+        for k in 0..n_keys {
+            start[k + 1] += start[k];
+        }
+        fill_with(out, start[n_keys] as usize, zero, false);
+        let mut fill: Vec<u32> = start[..n_keys].to_vec();
         let mut g = 0;
         for c in chunks {
             for x in c.iter() {
-                if let Some(f) = key(x).and_then(|k| fill.get_mut(k.wrapping_sub(keys.start))) {
-                    part[*f as usize] = val(g, x);
+                if let Some(f) = key(x).and_then(|k| fill.get_mut(k)) {
+                    out[*f as usize] = val(g, x);
                     *f += 1;
                 }
                 g += 1;
             }
         }
-    };
-    if parts == 1 {
-        scatter(0..n_keys, out);
-    } else {
-        key_range_jobs(start, n_keys, parts, out).into_par_iter().for_each(|(keys, part)| scatter(keys, part));
+        return;
     }
+    let runs = runs(chunks, parts);
+    let mut fill: Vec<Vec<u32>> = runs
+        .par_iter()
+        .map(|run| {
+            let mut counts = vec![0u32; n_keys];
+            for x in run.iter().flat_map(|(_, c)| c.iter()) {
+                if let Some(k) = key(x) {
+                    counts[k] += 1;
+                }
+            }
+            counts
+        })
+        .collect();
+    run_places(&mut fill, start, n_keys);
+    fill_with(out, start[n_keys] as usize, zero, true);
+    let places = Places::of(out);
+    runs.par_iter().zip(fill.par_iter_mut()).for_each(|(run, fill)| {
+        for &(g0, c) in run {
+            for (j, x) in c.iter().enumerate() {
+                if let Some(k) = key(x) {
+                    places.put(fill[k] as usize, val(g0 + j, x));
+                    fill[k] += 1;
+                }
+            }
+        }
+    });
 }
 
-/// The starts of a counting sort's keys `0..n_keys` (`start[k]..start[k + 1]`
-/// for key k): `count(lo, counts)` adds each item of a key `lo + j` to
-/// `counts[j]`, for `parts` equal ranges of keys at once on the pool's threads.
-fn key_starts(start: &mut Vec<u32>, n_keys: usize, parts: usize, count: impl Fn(usize, &mut [u32]) + Sync) {
+/// The items of `chunks` (taken chunk after chunk) cut into `parts` runs of
+/// about equal length, in order, each as slices with the place over all
+/// chunks of their first item.
+fn runs<'a, T>(chunks: &[&'a [T]], parts: usize) -> Vec<Vec<(usize, &'a [T])>> {
+    let total: usize = chunks.iter().map(|c| c.len()).sum();
+    let per = total.div_ceil(parts).max(1);
+    let mut runs: Vec<Vec<(usize, &[T])>> = (0..parts).map(|_| Vec::new()).collect();
+    let mut g = 0;
+    for &c in chunks {
+        let mut rest = c;
+        while !rest.is_empty() {
+            let t = (g / per).min(parts - 1);
+            let take = if t + 1 == parts { rest.len() } else { ((t + 1) * per - g).min(rest.len()) };
+            runs[t].push((g, &rest[..take]));
+            g += take;
+            rest = &rest[take..];
+        }
+    }
+    runs
+}
+
+/// From each run's count of items by key (`fill[t][k]`), the keys' starts
+/// (`start`, `n_keys + 1` entries) and, in place of the counts, where each
+/// run's first item of each key goes: after the key's items of the runs
+/// before it.
+fn run_places(fill: &mut [Vec<u32>], start: &mut Vec<u32>, n_keys: usize) {
     start.clear();
     start.resize(n_keys + 1, 0);
-    if parts == 1 {
-        count(0, &mut start[1..]);
-    } else {
-        let per = n_keys.div_ceil(parts).max(1);
-        start[1..].par_chunks_mut(per).enumerate().for_each(|(t, counts)| count(t * per, counts));
-    }
+    let mut s = 0u32;
     for k in 0..n_keys {
-        start[k + 1] += start[k];
+        start[k] = s;
+        for f in fill.iter_mut() {
+            let n = f[k];
+            f[k] = s;
+            s += n;
+        }
     }
+    start[n_keys] = s;
 }
 
-/// Keys `0..n_keys` cut into `parts` ranges holding about equal numbers of
-/// items (key k's items are `out[start[k]..start[k + 1]]`), each with its part
-/// of `out`, for the threads of a counting sort.
-fn key_range_jobs<'a, O>(start: &[u32], n_keys: usize, parts: usize, out: &'a mut [O]) -> Vec<(std::ops::Range<usize>, &'a mut [O])> {
-    let total = start[n_keys] as usize;
-    let cuts: Vec<usize> = (0..=parts)
-        .map(|t| if t == parts { n_keys } else { start.partition_point(|&s| (s as usize) < t * total / parts).min(n_keys) })
-        .collect();
-    let mut jobs = Vec::with_capacity(parts);
-    let mut rest = out;
-    for w in cuts.windows(2) {
-        let (part, r) = std::mem::take(&mut rest).split_at_mut((start[w[1]] - start[w[0]]) as usize);
-        jobs.push((w[0]..w[1], part));
-        rest = r;
+/// An array written from several threads at once, each place by one
+/// thread: the runs of a counting sort (`run_places` gives every run's
+/// items of every key places of their own, which together are each place
+/// once).
+struct Places<O> {
+    ptr: *mut O,
+    len: usize,
+}
+
+// SAFETY: `put` writes a place through the pointer; places are written by
+// one thread each (see `put`), and the array outlives the `Places` (it is
+// borrowed mutably for the `Places`' life by `of`).
+unsafe impl<O: Send> Sync for Places<O> {}
+
+impl<O: Copy> Places<O> {
+    fn of(v: &mut [O]) -> Places<O> {
+        Places { ptr: v.as_mut_ptr(), len: v.len() }
     }
-    jobs
+
+    /// Write `x` at place `i` (in bounds: checked). Callers write each
+    /// place from one thread only, and no one reads the array until every
+    /// thread is done (the end of the parallel loop).
+    fn put(&self, i: usize, x: O) {
+        assert!(i < self.len, "a counting sort's place {i} past its {} places", self.len);
+        // SAFETY: in bounds (checked above), and no other thread writes or
+        // reads place i meanwhile (the places of the runs are disjoint)
+        unsafe { self.ptr.add(i).write(x) }
+    }
 }
 
 /// The particles counting-sorted into cells (a quarter of the interaction
@@ -1498,7 +1629,11 @@ impl CellGrid {
             shifted = (0..n).map(|i| p.list_pos(i, period)).collect();
             &shifted
         };
-        let rmax = p.radius.iter().cloned().fold(0.0, f64::max);
+        let rmax = if threaded {
+            p.radius.par_iter().with_min_len(PASS_BLOCK).cloned().reduce(|| 0.0, f64::max)
+        } else {
+            p.radius.iter().cloned().fold(0.0, f64::max)
+        };
         // the grid spans the particles' bounding box
         let far = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
         let (mut lo, mut hi) = if threaded {
@@ -2008,3 +2143,4 @@ mod tests {
         }
     }
 }
+

@@ -545,6 +545,51 @@ impl Mesh {
         out.truncate(kept);
     }
 
+    /// For a block of spheres centred in the box `lo..hi` with reach at most
+    /// `reach` (radius plus skin): the triangles any of them may have as
+    /// candidates, ascending, in `out` (none: `out` is left empty), where the
+    /// mesh is scanned ([`SCAN_MAX_TRIANGLES`]); false where it uses its grid
+    /// (each sphere is then looked up alone). A triangle is left out only
+    /// where every sphere of the box fails its bounding-box test: the tests
+    /// below compare the box's far side with the same bound less the largest
+    /// reach, and a rounded difference is monotone in what it subtracts.
+    pub fn near_box(&self, lo: &Vec3, hi: &Vec3, reach: f64, out: &mut Vec<u32>) -> bool {
+        out.clear();
+        if self.triangles.len() > SCAN_MAX_TRIANGLES {
+            return false;
+        }
+        let apart = |blo: &Vec3, bhi: &Vec3| {
+            (0..3).any(|k| hi[k] < blo[k] - reach || lo[k] > bhi[k] + reach)
+        };
+        if apart(&self.bounds.0, &self.bounds.1) {
+            return true;
+        }
+        out.extend(self.aabb.iter().enumerate().filter(|(_, (blo, bhi))| !apart(blo, bhi)).map(|(t, _)| t as u32));
+        true
+    }
+
+    /// [`Mesh::candidates`] of a sphere of a block, testing only `among`
+    /// (from [`Mesh::near_box`] of a box holding c, with a reach at least
+    /// this one): each tested as [`Mesh::candidates_linear`] tests it, so the
+    /// same triangles in the same order.
+    #[inline]
+    pub fn candidates_among(&self, c: &Vec3, reach: f64, among: &[u32], out: &mut Vec<u32>) {
+        if among.is_empty() || Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
+            return;
+        }
+        for &t in among {
+            let (lo, hi) = &self.aabb[t as usize];
+            if Self::outside(lo, hi, c, reach) {
+                continue;
+            }
+            let [a, b, d] = self.corners(t as usize);
+            let (p, _) = closest_point(c, &a, &b, &d);
+            if (c - p).norm_squared() < reach * reach {
+                out.push(t);
+            }
+        }
+    }
+
     /// [`Mesh::candidates`] by a scan over every triangle's bounding box (the
     /// reference the grid is tested and benchmarked against).
     #[doc(hidden)]
@@ -884,6 +929,17 @@ mod tests {
             m.candidates_grid(&c, reach, &mut out);
             m.candidates_linear(&c, reach, &mut want);
             assert_eq!(out, want, "query {q} at {c:?}, reach {reach:e}");
+            // a block's narrowing (a small mesh): c in a box with another
+            // centre up to two reaches off, whose reach is up to twice c's
+            let other = c + Vec3::from_fn(|_, _| 2.0 * reach * (2.0 * rng.random::<f64>() - 1.0));
+            let mut near = vec![5u32];
+            if m.near_box(&c.inf(&other), &c.sup(&other), reach * (1.0 + rng.random::<f64>()), &mut near) {
+                out.truncate(2);
+                m.candidates_among(&c, reach, &near, &mut out);
+                assert_eq!(out, want, "query {q} at {c:?} in a block, reach {reach:e}");
+            } else {
+                assert!(m.triangles.len() > SCAN_MAX_TRIANGLES && near.is_empty());
+            }
         }
     }
 

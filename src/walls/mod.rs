@@ -404,6 +404,28 @@ impl Wall {
         self.rotation.as_ref().map(|r| (self.torque - r.point.cross(&self.force)).dot(&r.axis))
     }
 
+    /// For a block of spheres centred in `lo..hi`, radii at most `r`: where
+    /// the wall is a scanned mesh, the triangles any of them may have as
+    /// candidates ([`Mesh::near_box`]), for [`Wall::candidates_in`]; else
+    /// false (each sphere is looked at alone).
+    pub fn near_box(&self, lo: &Vec3, hi: &Vec3, r: f64, reach: f64, out: &mut Vec<u32>) -> bool {
+        match &self.shape {
+            Shape::Mesh(m) => m.near_box(lo, hi, r + reach, out),
+            _ => false,
+        }
+    }
+
+    /// [`Wall::candidates`], of a sphere of a block for which
+    /// [`Wall::near_box`] gave `near` (`None`: it gave false): the same
+    /// features in the same order.
+    #[inline]
+    pub fn candidates_in(&self, c: &Vec3, r: f64, reach: f64, near: Option<&[u32]>, out: &mut Vec<u32>) {
+        match (&self.shape, near) {
+            (Shape::Mesh(m), Some(near)) => m.candidates_among(c, r + reach, near, out),
+            _ => self.candidates(c, r, reach, out),
+        }
+    }
+
     /// Features possibly within `reach` of a sphere surface, for the neighbour list.
     pub fn candidates(&self, c: &Vec3, r: f64, reach: f64, out: &mut Vec<u32>) {
         match &self.shape {
