@@ -1520,23 +1520,26 @@ fn run_places(fill: &mut [Vec<u32>], start: &mut Vec<u32>, n_keys: usize) {
 /// thread: the runs of a counting sort (`run_places` gives every run's
 /// items of every key places of their own, which together are each place
 /// once).
-struct Places<O> {
+struct Places<'a, O> {
     ptr: *mut O,
     len: usize,
+    /// The array, borrowed mutably for as long as the `Places` lives.
+    _array: std::marker::PhantomData<&'a mut [O]>,
 }
 
 // SAFETY: `put` writes a place through the pointer; places are written by
-// one thread each (see `put`), and the array outlives the `Places` (it is
-// borrowed mutably for the `Places`' life by `of`).
-unsafe impl<O: Send> Sync for Places<O> {}
+// one thread each (see `put`), and the array is borrowed mutably for the
+// `Places`' life (`of`), so nothing else reads or moves it meanwhile.
+unsafe impl<O: Send> Sync for Places<'_, O> {}
 
-impl<O: Copy> Places<O> {
-    fn of(v: &mut [O]) -> Places<O> {
-        Places { ptr: v.as_mut_ptr(), len: v.len() }
+impl<'a, O: Copy> Places<'a, O> {
+    fn of(v: &'a mut [O]) -> Places<'a, O> {
+        Places { ptr: v.as_mut_ptr(), len: v.len(), _array: std::marker::PhantomData }
     }
 
     /// Write `x` at place `i` (in bounds: checked). Callers write each
-    /// place from one thread only, and no one reads the array until every
+    /// place from one thread only (their counts and their writes take the
+    /// same items by the same key), and no one reads the array until every
     /// thread is done (the end of the parallel loop).
     fn put(&self, i: usize, x: O) {
         assert!(i < self.len, "a counting sort's place {i} past its {} places", self.len);
