@@ -437,8 +437,8 @@ impl NeighborList {
             }
         };
         let mut h = History {
-            pairs: in_blocks(order.len(), threaded, ((0, 0), Hist::ZERO), pair_rows),
-            walls: in_blocks(order.len(), threaded, ((0, 0, 0), Hist::ZERO), wall_rows),
+            pairs: in_blocks(order.len(), threaded, pair_rows),
+            walls: in_blocks(order.len(), threaded, wall_rows),
         };
         // in order already (a wall's candidates come in the order its search
         // gives them): each is one pass that finds it so
@@ -704,16 +704,7 @@ impl NeighborList {
         if runs.len() <= 1 {
             // one thread: the counts read the list in order
             let start = &mut self.incident_start;
-            start.clear();
-            start.resize(n_own + 1, 0);
-            for &(_, b) in pairs.iter() {
-                if let Some(c) = start.get_mut(b as usize + 1).filter(|_| (b as usize) < n_own) {
-                    *c += 1;
-                }
-            }
-            for k in 0..n_own {
-                start[k + 1] += start[k];
-            }
+            key_starts(start, n_own, pairs.iter().map(|&(_, b)| b as usize));
             sized(&mut self.incident, start[n_own] as usize, 0);
             let mut fill = start[..n_own].to_vec();
             let out = &mut self.incident;
@@ -1331,12 +1322,7 @@ impl Rows<'_> {
 /// The entries `f` appends for places `0..n`, in order: on one thread one
 /// pass; on several, blocks of places at once, each into its own array, then
 /// copied into their places of the whole at once.
-fn in_blocks<T: Copy + Send + Sync>(
-    n: usize,
-    threaded: bool,
-    zero: T,
-    f: impl Fn(std::ops::Range<usize>, &mut Vec<T>) + Sync,
-) -> Vec<T> {
+fn in_blocks<T: Copy + Send + Sync>(n: usize, threaded: bool, f: impl Fn(std::ops::Range<usize>, &mut Vec<T>) + Sync) -> Vec<T> {
     let mut out = Vec::new();
     if !threaded {
         f(0..n, &mut out);
@@ -1349,15 +1335,7 @@ fn in_blocks<T: Copy + Send + Sync>(
             v
         })
         .collect();
-    fill_with(&mut out, parts.iter().map(Vec::len).sum(), zero, true);
-    let mut places = Vec::with_capacity(parts.len());
-    let mut rest = &mut out[..];
-    for part in &parts {
-        let (s, r) = std::mem::take(&mut rest).split_at_mut(part.len());
-        places.push(s);
-        rest = r;
-    }
-    places.into_par_iter().zip(parts.par_iter()).for_each(|(s, part)| s.copy_from_slice(part));
+    joined(&mut out, parts.iter().map(|v| &v[..]));
     out
 }
 
@@ -1379,7 +1357,6 @@ fn joined<'a, T: Copy + Send + Sync + 'a>(out: &mut Vec<T>, parts: impl Iterator
     jobs.into_par_iter().for_each(|(s, part)| s.copy_from_slice(part));
 }
 
-/// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
 /// `v` of length `len`, its first places as they were (a build that writes
 /// every place needs no clearing pass over the arrays it reuses); new
 /// places hold `x`.
@@ -1388,6 +1365,7 @@ fn sized<T: Copy>(v: &mut Vec<T>, len: usize, x: T) {
     v.resize(len, x);
 }
 
+/// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
 fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: bool) {
     v.clear();
     if threaded {
@@ -1420,20 +1398,15 @@ fn counting_sort<T: Sync, O: Copy + Send + Sync>(
     threaded: bool,
 ) {
     let key = |x: &T| key(x).filter(|&k| k < n_keys);
-    let parts = if threaded { rayon::current_num_threads().max(1) } else { 1 };
+    // each run beyond the first counts in an array of its own: where the
+    // keys far outnumber the items (a sparse cell grid: up to 64 cells a
+    // particle), they would cost more memory than the items, so one thread
+    // sorts (at most SORT_KEYS_PER_ITEM more counts than items)
+    let items: usize = chunks.iter().map(|c| c.len()).sum();
+    let threads = if threaded { rayon::current_num_threads().max(1) } else { 1 };
+    let parts = if n_keys.saturating_mul(threads - 1) > SORT_KEYS_PER_ITEM * items { 1 } else { threads };
     if parts == 1 {
-        start.clear();
-        start.resize(n_keys + 1, 0);
-        for c in chunks {
-            for x in c.iter() {
-                if let Some(n) = key(x).and_then(|k| start.get_mut(k + 1)) {
-                    *n += 1;
-                }
-            }
-        }
-        for k in 0..n_keys {
-            start[k + 1] += start[k];
-        }
+        key_starts(start, n_keys, chunks.iter().flat_map(|c| c.iter()).filter_map(key));
         fill_with(out, start[n_keys] as usize, zero, false);
         let mut fill: Vec<u32> = start[..n_keys].to_vec();
         let mut g = 0;
@@ -1474,6 +1447,26 @@ fn counting_sort<T: Sync, O: Copy + Send + Sync>(
             }
         }
     });
+}
+
+/// Most extra counts the threaded counting sort keeps per item sorted
+/// (4 bytes each): beyond that it sorts on one thread.
+const SORT_KEYS_PER_ITEM: usize = 16;
+
+/// The starts of `n_keys` keys' places (`n_keys + 1` entries) from the
+/// keys of the items in turn, each item one place (keys from `n_keys` on
+/// have none): the serial counting sort's count, and the incident lists'.
+fn key_starts(start: &mut Vec<u32>, n_keys: usize, keys: impl Iterator<Item = usize>) {
+    start.clear();
+    start.resize(n_keys + 1, 0);
+    for k in keys {
+        if let Some(n) = start.get_mut(k + 1).filter(|_| k < n_keys) {
+            *n += 1;
+        }
+    }
+    for k in 0..n_keys {
+        start[k + 1] += start[k];
+    }
 }
 
 /// The items of `chunks` (taken chunk after chunk) cut into `parts` runs of
@@ -2007,7 +2000,8 @@ mod tests {
         fn the_counting_sort_on_threads_is_the_stable_sort(
             items in proptest::collection::vec((0usize..48, proptest::bool::weighted(0.8)), 0..600),
             cuts in proptest::collection::vec(0usize..600, 0..5),
-            n_keys in 0usize..45,
+            // (many more keys than items: the sort runs on one thread)
+            n_keys in proptest::prop_oneof![0usize..45, 1000usize..12000],
         ) {
             // keys from n_keys up are left out, as items without one
             let key = |&(k, has): &(usize, bool)| has.then_some(k);

@@ -535,9 +535,7 @@ impl Mesh {
                 continue;
             }
             prev = Some(t);
-            let [a, b, d] = self.corners(t as usize);
-            let (p, _) = closest_point(c, &a, &b, &d);
-            if (c - p).norm_squared() < reach * reach {
+            if self.within_reach(t as usize, c, reach) {
                 out[kept] = t;
                 kept += 1;
             }
@@ -574,39 +572,39 @@ impl Mesh {
     /// same triangles in the same order.
     #[inline]
     pub fn candidates_among(&self, c: &Vec3, reach: f64, among: &[u32], out: &mut Vec<u32>) {
-        if among.is_empty() || Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
+        if !among.is_empty() {
+            self.scan(c, reach, among.iter().copied(), out);
+        }
+    }
+
+    /// The candidates among `tris`, in their order: every search's
+    /// triangles after the mesh's bounding box.
+    #[inline(always)]
+    fn scan(&self, c: &Vec3, reach: f64, tris: impl Iterator<Item = u32>, out: &mut Vec<u32>) {
+        if Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
             return;
         }
-        for &t in among {
+        out.extend(tris.filter(|&t| {
             let (lo, hi) = &self.aabb[t as usize];
-            if Self::outside(lo, hi, c, reach) {
-                continue;
-            }
-            let [a, b, d] = self.corners(t as usize);
-            let (p, _) = closest_point(c, &a, &b, &d);
-            if (c - p).norm_squared() < reach * reach {
-                out.push(t);
-            }
-        }
+            !Self::outside(lo, hi, c, reach) && self.within_reach(t as usize, c, reach)
+        }));
+    }
+
+    /// Whether triangle t's closest point to c is nearer than `reach`: the
+    /// test after the bounding box in every search (scan, block or grid), so
+    /// all give the same triangles.
+    #[inline(always)]
+    fn within_reach(&self, t: usize, c: &Vec3, reach: f64) -> bool {
+        let [a, b, d] = self.corners(t);
+        let (p, _) = closest_point(c, &a, &b, &d);
+        (c - p).norm_squared() < reach * reach
     }
 
     /// [`Mesh::candidates`] by a scan over every triangle's bounding box (the
     /// reference the grid is tested and benchmarked against).
     #[doc(hidden)]
     pub fn candidates_linear(&self, c: &Vec3, reach: f64, out: &mut Vec<u32>) {
-        if Self::outside(&self.bounds.0, &self.bounds.1, c, reach) {
-            return;
-        }
-        for (t, (lo, hi)) in self.aabb.iter().enumerate() {
-            if Self::outside(lo, hi, c, reach) {
-                continue;
-            }
-            let [a, b, d] = self.corners(t);
-            let (p, _) = closest_point(c, &a, &b, &d);
-            if (c - p).norm_squared() < reach * reach {
-                out.push(t as u32);
-            }
-        }
+        self.scan(c, reach, 0..self.triangles.len() as u32, out);
     }
 
     /// Number of cells of the triangle grid and number of (cell, triangle)
