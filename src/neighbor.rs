@@ -204,9 +204,63 @@ pub struct NeighborList {
     pub spare: Spare,
     /// Positions at the last build (as the list saw them).
     pub x_ref: Vec<Vec3>,
+    /// How a build gives each particle its skin ([`SkinRule`]; set from the
+    /// case, not kept in checkpoints).
+    #[serde(skip)]
+    pub skin_rule: SkinRule,
+    /// The largest skin a build may give a particle (m; at least `skin`):
+    /// what the ghosts cover on several ranks (`Parallel::skin_limit`).
+    #[serde(skip)]
+    pub skin_limit: f64,
+    /// Each particle's skin at the last build (m; owned, then ghosts), where
+    /// not all are `skin` (`uniform`).
+    #[serde(skip)]
+    pub skins: Vec<f64>,
+    /// Whether every particle was listed with `skin` at the last build.
+    #[serde(skip)]
+    pub uniform: bool,
     /// Largest distance any wall has moved since the last build (m).
     pub wall_moved: f64,
     pub builds: u64,
+}
+
+/// A particle's skin at a build: s_k = 2 |v_k| dt N, at least the case's
+/// skin and at most `cap` times it, so that a particle that keeps its speed
+/// uses up half its skin in N steps (`SKIN_STEPS`) where the case's skin
+/// would last it fewer. A list is stale once the two largest d_k - s_k / 2
+/// add up to more than zero ([`Moved::stale`]): where a few particles fall
+/// fast through a slow pile (a hopper's discharge), they no longer decide
+/// alone how often the whole list is rebuilt. Off (every s_k the skin) where
+/// `per_speed` is 0: the default, and in periodic domains (whose period is
+/// checked against one skin).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SkinRule {
+    /// 2 dt N (s).
+    pub per_speed: f64,
+    /// The largest skin as a multiple of the case's.
+    pub cap: f64,
+}
+
+/// Steps a fast particle's skin lasts it (`SkinRule`).
+pub const SKIN_STEPS: f64 = 25.0;
+/// The largest skin, as a multiple of the case's (`SkinRule`).
+pub const SKIN_CAP: f64 = 4.0;
+
+impl SkinRule {
+    /// The rule for time step `dt`.
+    pub fn new(dt: f64) -> SkinRule {
+        SkinRule { per_speed: 2.0 * dt * SKIN_STEPS, cap: SKIN_CAP }
+    }
+
+    /// The skin of a particle of speed `speed` (m/s), the case's skin being
+    /// `skin` and the largest allowed `limit` (a NaN speed gets the largest).
+    #[inline]
+    pub fn of(&self, skin: f64, limit: f64, speed: f64) -> f64 {
+        if self.per_speed == 0.0 {
+            return skin;
+        }
+        (self.per_speed * speed).min(self.cap * skin).min(limit).max(skin)
+    }
 }
 
 /// Where a build takes the contact history from.
@@ -273,45 +327,51 @@ impl std::fmt::Debug for TouchFlags {
     }
 }
 
-/// How far the particles moved since a list was built: the largest
-/// displacement and the sum of the two largest (m), of one rank's owned
-/// particles or, agreed on (`Parallel::agree`), of all.
+/// How far the particles moved since a list was built, against their skins:
+/// of one rank's owned particles or, agreed on (`Parallel::agree`), of all.
+/// Particle k moved d_k and was listed with skin s_k (`NeighborList::skins`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Moved {
+    /// The largest d_k - s_k / 2 (m).
     pub first: f64,
+    /// The sum of the two largest d_k - s_k / 2 (m).
     pub two: f64,
+    /// The largest d_k - s_k (m): against the walls.
+    pub wall: f64,
 }
 
 impl Moved {
-    /// Displacements d1 >= d2, the two largest.
-    pub fn of(d1: f64, d2: f64) -> Moved {
-        Moved { first: d1, two: d1 + d2 }
+    /// Every particle listed with the same skin, d1 >= d2 the two largest displacements.
+    pub fn uniform(d1: f64, d2: f64, skin: f64) -> Moved {
+        let h = 0.5 * skin;
+        Moved { first: d1 - h, two: (d1 - h) + (d2 - h), wall: d1 - skin }
     }
 
     /// The particle set changed: the list is stale whatever moved.
     pub fn everything() -> Moved {
-        Moved { first: f64::INFINITY, two: f64::INFINITY }
+        Moved { first: f64::INFINITY, two: f64::INFINITY, wall: f64::INFINITY }
     }
 
-    /// True when a list built with `skin` may have missed a contact, walls
-    /// having moved at most `wall_moved` since. A pair was listed where its
-    /// centres were within r_a + r_b + skin, so two particles that moved d_a
-    /// and d_b can touch without being listed only where d_a + d_b > skin,
-    /// which needs the two largest displacements to add up to more than the
-    /// skin (not twice the largest: a few fast particles need not have moved
-    /// towards each other); a wall candidate was listed within r + skin of the
-    /// feature (a ghost within the largest reach plus the skin of the box), so
-    /// the same holds for d1 + wall_moved. A margin of 1e-9 of the skin covers
-    /// the rounding of the distances. Nothing physical depends on when a
-    /// list is rebuilt (history lives only while a contact touches), so this
-    /// changes speed only.
+    /// True when a list built with skins s_k (`skin` the smallest) may have
+    /// missed a contact, walls having moved at most `wall_moved` since. A
+    /// pair was listed where its centres were within r_a + r_b + (s_a +
+    /// s_b) / 2, so two particles that moved d_a and d_b can touch without
+    /// being listed only where (d_a - s_a / 2) + (d_b - s_b / 2) > 0, which
+    /// needs the two largest of these to add up to more than zero (not twice
+    /// the largest: a few fast particles need not have moved towards each
+    /// other); with one skin for all, d1 + d2 > skin. A wall candidate was
+    /// listed within r + s of the feature, so the same holds for the largest
+    /// d_k - s_k plus `wall_moved`. A margin of 1e-9 of the skin covers the
+    /// rounding of the distances. Nothing physical depends on when a list is
+    /// rebuilt (history lives only while a contact touches), so this changes
+    /// speed only.
     pub fn stale(&self, skin: f64, wall_moved: f64) -> bool {
-        self.two.max(self.first + wall_moved) > skin * (1.0 - 1e-9)
+        let margin = -1e-9 * skin;
+        self.two > margin || self.wall + wall_moved > margin
     }
 }
 
-/// The two largest of four values (each pair sorted, largest first; values
-/// are displacements, never below 0).
+/// The two largest of four values (each pair sorted, largest first; no NaN).
 #[inline]
 pub(crate) fn top_two(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     if a[0] >= b[0] {
@@ -323,7 +383,7 @@ pub(crate) fn top_two(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
 
 impl NeighborList {
     pub fn new(skin: f64) -> Self {
-        NeighborList { skin, ..Default::default() }
+        NeighborList { skin, skin_limit: skin, uniform: true, ..Default::default() }
     }
 
     /// True when the list may have missed a contact (see [`Moved::stale`]),
@@ -333,15 +393,18 @@ impl NeighborList {
         Ok(self.displacement(p, domain)?.stale(self.skin, self.wall_moved))
     }
 
-    /// The two largest displacements of owned particles since the last build
-    /// (infinite if the particle set changed); checks that each is finite and
-    /// in the domain.
+    /// How far the owned particles moved since the last build against their
+    /// skins ([`Moved`]; infinite if the particle set changed); checks that
+    /// each is finite and in the domain.
     pub fn displacement(&self, p: &Particles, domain: &Domain) -> Result<Moved, TalusError> {
         let n = p.owned();
         let changed = self.x_ref.len() != n;
-        // the two largest squared displacements of particles `range` and the
-        // first of them outside the domain (a maximum is exact in any order).
-        // One branch-light pass: a displacement goes into the top two only
+        // with skins of their own, d_k - s_k / 2 (the two largest) and d_k - s_k
+        // (the largest); else the squared displacements (the two largest)
+        let own = !self.uniform && self.skins.len() >= n;
+        // the two largest of these of particles `range`, the largest d_k - s_k,
+        // and the first of them outside the domain (a maximum is exact in any
+        // order). One branch-light pass: a value goes into the top two only
         // where it beats the second (the same two either way), and the domain
         // test is or-ed up and looked into again only where some particle fails
         // it (a NaN fails it too).
@@ -349,12 +412,25 @@ impl NeighborList {
         let outside = |x: &Vec3| {
             !(x.x >= lo.x) | !(x.y >= lo.y) | !(x.z >= lo.z) | !(x.x <= hi.x) | !(x.y <= hi.y) | !(x.z <= hi.z)
         };
-        let part = |range: std::ops::Range<usize>| -> ([f64; 2], Option<usize>) {
-            let mut top = [0.0f64; 2];
+        let none = if own { f64::NEG_INFINITY } else { 0.0 };
+        let part = |range: std::ops::Range<usize>| -> ([f64; 2], f64, Option<usize>) {
+            let mut top = [none; 2];
+            let mut wall = f64::NEG_INFINITY;
             let mut bad = false;
             let pos = &p.pos[range.clone()];
             if changed {
                 bad = pos.iter().fold(false, |b, x| b | outside(x));
+            } else if own {
+                for (i, x) in range.clone().zip(pos) {
+                    let at = if p.image.is_empty() { *x } else { p.list_pos(i, &self.period) };
+                    let (d, s) = ((at - self.x_ref[i]).norm(), self.skins[i]);
+                    let e = d - 0.5 * s;
+                    if e > top[1] {
+                        top = top_two(top, [e, f64::NEG_INFINITY]);
+                    }
+                    wall = wall.max(d - s);
+                    bad |= outside(x);
+                }
             } else if p.image.is_empty() {
                 for (x, r) in pos.iter().zip(&self.x_ref[range.clone()]) {
                     let d2 = (x - r).norm_squared();
@@ -372,17 +448,25 @@ impl NeighborList {
                     bad |= outside(x);
                 }
             }
-            (top, if bad { range.clone().find(|&i| outside(&p.pos[i])) } else { None })
+            (top, wall, if bad { range.clone().find(|&i| outside(&p.pos[i])) } else { None })
         };
-        let (top, bad) = if !self.threaded || n <= 2 * PASS_BLOCK {
+        let (top, wall, bad) = if !self.threaded || n <= 2 * PASS_BLOCK {
             part(0..n)
         } else {
-            blocks(n, PASS_BLOCK).map(part).reduce(|| ([0.0; 2], None), |x, y| (top_two(x.0, y.0), x.1.or(y.1)))
+            blocks(n, PASS_BLOCK)
+                .map(part)
+                .reduce(|| ([none; 2], f64::NEG_INFINITY, None), |x, y| (top_two(x.0, y.0), x.1.max(y.1), x.2.or(y.2)))
         };
         if let Some(i) = bad {
             return Err(particle_error(p, i, domain));
         }
-        Ok(if changed { Moved::everything() } else { Moved::of(top[0].sqrt(), top[1].sqrt()) })
+        Ok(if changed {
+            Moved::everything()
+        } else if own {
+            Moved { first: top[0], two: top[0] + top[1], wall }
+        } else {
+            Moved::uniform(top[0].sqrt(), top[1].sqrt(), self.skin)
+        })
     }
 
     /// The non-zero contact history keyed by global ids, sorted by key.
@@ -493,7 +577,8 @@ impl NeighborList {
     /// is owned (ghosts are the particles after `p.owned()`); wall candidates:
     /// owned particles only.
     pub fn build_with(&mut self, p: &Particles, walls: &[Wall], carry: Carry) {
-        let grid = CellGrid::new(p, self.skin, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
+        self.set_skins(p);
+        let grid = CellGrid::new(p, self.skin, &self.skins, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
         // the last build's rows are read pair by pair where they are of the
         // same particles in the same places (no periodic images)
         let read;
@@ -530,6 +615,28 @@ impl NeighborList {
         self.builds += 1;
     }
 
+    /// Each particle's skin for this build (`skins`, `uniform`): the case's
+    /// skin, or where a [`SkinRule`] is set (not in a periodic domain), the
+    /// rule's of the particle's speed, at most `skin_limit`. A ghost gets
+    /// the skin its owner gives it (the same velocity, the same rule).
+    fn set_skins(&mut self, p: &Particles) {
+        let rule = if self.period == Vec3::zeros() { self.skin_rule } else { SkinRule::default() };
+        let (skin, limit) = (self.skin, self.skin_limit);
+        self.skins.clear();
+        if rule.per_speed == 0.0 {
+            self.skins.resize(p.len(), skin);
+            self.uniform = true;
+            return;
+        }
+        let of = |v: &Vec3| rule.of(skin, limit, v.norm());
+        if self.threaded {
+            self.skins.par_extend(p.vel.par_iter().with_min_len(PASS_BLOCK).map(of));
+        } else {
+            self.skins.extend(p.vel.iter().map(of));
+        }
+        self.uniform = self.skins.iter().all(|&s| s == skin);
+    }
+
     /// Each particle's place at the last build (`u32::MAX`: it was not on
     /// this rank then), found by its id; `None` where an id is held twice,
     /// now or then (periodic images), or the last build's arrays are not of
@@ -560,18 +667,27 @@ impl NeighborList {
         let rolling = self.rolling_history;
         let threaded = self.threaded && n > 2 * ROW_BLOCK;
         // every pair within reach once, as (row owner, partner)
+        // (then the wide particles' pairs beyond the cells' range)
+        let wide = grid.wide.len();
         let found: Vec<Vec<(u32, u32)>> = if threaded {
-            blocks(n, ROW_BLOCK)
+            let mut found: Vec<Vec<(u32, u32)>> = blocks(n, ROW_BLOCK)
                 .map(|range| {
                     let mut f = Vec::new();
                     grid.search(p, range, &mut f);
                     f
                 })
-                .collect()
+                .collect();
+            found.par_extend(blocks(wide, WIDE_BLOCK).map(|range| {
+                let mut f = Vec::new();
+                grid.search_wide(p, range, &mut f);
+                f
+            }));
+            found
         } else {
             let mut f = std::mem::take(&mut self.found);
             f.clear();
             grid.search(p, 0..n, &mut f);
+            grid.search_wide(p, 0..wide, &mut f);
             vec![f]
         };
         // counting sort by row owner: `keyed[seg[a]..seg[a + 1]]` holds a's
@@ -750,6 +866,7 @@ impl NeighborList {
             });
         }
         self.incident.clear();
+        room(&mut self.incident, keyed.len());
         if threaded {
             self.incident.par_extend(keyed.par_iter().map(|x| x.1));
         } else {
@@ -786,7 +903,7 @@ impl NeighborList {
             (None, Some((map, arrived))) => OldWalls::Mapped { map, rows, arrived: &arrived.walls },
             (None, None) => OldWalls::Rows(rows),
         };
-        let find = WallFind { p, walls, old, skin: self.skin, period: self.period, rolling: self.rolling_history };
+        let find = WallFind { p, walls, old, skins: &self.skins, period: self.period, rolling: self.rolling_history };
         if !self.threaded || n_own <= 2 * ROW_BLOCK {
             find.append(&mut all, 0..n_own);
         } else {
@@ -853,7 +970,8 @@ struct WallFind<'a> {
     p: &'a Particles,
     walls: &'a [Wall],
     old: OldWalls<'a>,
-    skin: f64,
+    /// Each particle's skin (`NeighborList::skins`).
+    skins: &'a [f64],
     period: Vec3,
     rolling: bool,
 }
@@ -877,12 +995,13 @@ impl WallFind<'_> {
                 let block = i..(i + WALL_BLOCK).min(range.end);
                 let far = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
                 let (lo, hi) = p.pos[block.clone()].iter().fold(far, |(lo, hi), x| (lo.inf(x), hi.sup(x)));
-                let r = p.radius[block].iter().cloned().fold(0.0, f64::max);
+                let r = p.radius[block.clone()].iter().cloned().fold(0.0, f64::max);
+                let skin = self.skins[block].iter().cloned().fold(0.0, f64::max);
                 for (w, wall) in self.walls.iter().enumerate() {
                     for (k, g) in shifts.iter().enumerate() {
                         let s = crate::particles::image_shift(g, &self.period);
                         let (is, list) = &mut near[w * shifts.len() + k];
-                        *is = wall.active && wall.near_box(&(lo + s), &(hi + s), r, self.skin, list);
+                        *is = wall.active && wall.near_box(&(lo + s), &(hi + s), r, skin, list);
                     }
                 }
             }
@@ -899,7 +1018,7 @@ impl WallFind<'_> {
                     feats.clear();
                     let x = p.pos[i] + crate::particles::image_shift(g, &self.period);
                     let (is, list) = &near[w * shifts.len() + k];
-                    wall.candidates_in(&x, p.radius[i], self.skin, is.then_some(&list[..]), &mut feats);
+                    wall.candidates_in(&x, p.radius[i], self.skins[i], is.then_some(&list[..]), &mut feats);
                     if feats.is_empty() {
                         continue;
                     }
@@ -1254,6 +1373,10 @@ const HIST_PREFETCH: usize = 8;
 /// displacement since the last build, the cell grid's bounding box and cells).
 const PASS_BLOCK: usize = 8192;
 
+/// Wide particles a thread searches at once (`CellGrid::search_wide`: each
+/// scans many cells).
+const WIDE_BLOCK: usize = 256;
+
 /// Particles whose wall candidates among a small mesh's triangles are
 /// narrowed down at once (`WallFind::append`).
 const WALL_BLOCK: usize = 16;
@@ -1362,12 +1485,24 @@ fn joined<'a, T: Copy + Send + Sync + 'a>(out: &mut Vec<T>, parts: impl Iterator
 /// places hold `x`.
 fn sized<T: Copy>(v: &mut Vec<T>, len: usize, x: T) {
     v.truncate(len);
+    room(v, len);
     v.resize(len, x);
+}
+
+/// Room in `v` for `len` items: where its buffer is too small, one of
+/// `len` and a sixteenth more, not the doubling `Vec` would do (a list that
+/// grows by 5% past its first build's size would otherwise hold twice the
+/// memory it needs in every array of one place per pair).
+fn room<T>(v: &mut Vec<T>, len: usize) {
+    if len > v.capacity() {
+        v.reserve_exact(len + len / 16 - v.len());
+    }
 }
 
 /// `v` made `len` copies of `x` (in parallel where `threaded`), its buffer kept.
 fn fill_with<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, x: T, threaded: bool) {
     v.clear();
+    room(v, len);
     if threaded {
         v.par_extend(rayon::iter::repeat_n(x, len));
     } else {
@@ -1545,8 +1680,8 @@ impl<'a, O: Copy> Places<'a, O> {
 /// The particles counting-sorted into cells (a quarter of the interaction
 /// range along x, the whole range along y and z, or larger where the cell
 /// count is capped), over their bounding box: `sorted[start[c]..start[c + 1]]`
-/// holds cell c's particles as (id, index, [x, y, z, radius]), cells in
-/// x-fastest order.
+/// holds cell c's particles as (id, index, [x, y, z, radius + skin / 2]),
+/// cells in x-fastest order (each particle's own skin, `NeighborList::skins`).
 struct CellGrid {
     dims: [usize; 3],
     /// How many cells out along x a particle's partners can be (one along y and z).
@@ -1555,7 +1690,18 @@ struct CellGrid {
     /// Each particle's cell.
     cells: Vec<usize>,
     sorted: Vec<(u64, u32, [f64; 4])>,
-    skin: f64,
+    /// The range the cells cover (m): the half stencil finds every pair
+    /// nearer than this, so it keeps the pairs within both this and their
+    /// reach; the wide particles' own search, the rest.
+    whole: f64,
+    /// Each cell's length along x, y, z (m).
+    size: [f64; 3],
+    /// The largest radius + skin / 2 (m).
+    h_max: f64,
+    /// The places in `sorted` of the particles whose radius + skin / 2 is
+    /// above `whole / 2` (only these can be in a pair whose reach is above
+    /// `whole`), in order.
+    wide: Vec<u32>,
 }
 
 impl CellGrid {
@@ -1571,7 +1717,7 @@ impl CellGrid {
         let n_own = p.owned();
         let [nx, ny, nz] = self.dims;
         let rx = self.reach_x;
-        let skin = self.skin;
+        let whole = self.whole;
         for s in range {
             let (ida, a, qa) = self.sorted[s];
             let ghost_a = a as usize >= n_own;
@@ -1593,7 +1739,7 @@ impl CellGrid {
                 out.resize(len + r.len(), (0, 0));
                 for &(idb, b, qb) in &self.sorted[r] {
                     let (dx, dy, dz) = (qb[0] - qa[0], qb[1] - qa[1], qb[2] - qa[2]);
-                    let cut = (qa[3] + qb[3]) + skin;
+                    let cut = (qa[3] + qb[3]).min(whole);
                     let near = (dx * dx + dy * dy + dz * dz < cut * cut) & (idb != ida) & !(ghost_a & (b as usize >= n_own));
                     // (a clump's members never pair: a branch taken the same way for free particles)
                     let keep = near & (clump_a == 0 || p.clump[b as usize] != clump_a);
@@ -1614,9 +1760,50 @@ impl CellGrid {
         }
     }
 
+    /// The pairs within reach but farther apart than `whole` (which the
+    /// half stencil leaves out) of the wide particles `wide[range]`, as
+    /// [`CellGrid::search`] gives pairs: each searches every cell within
+    /// its radius + skin / 2 plus the largest of these, and a pair of two
+    /// wide particles is kept by the one of lower place in storage.
+    fn search_wide(&self, p: &Particles, range: std::ops::Range<usize>, out: &mut Vec<(u32, u32)>) {
+        let n_own = p.owned();
+        let [nx, ny, nz] = self.dims;
+        let (whole, narrow) = (self.whole, 0.5 * self.whole);
+        let w2 = whole * whole;
+        for &s in &self.wide[range] {
+            let (ida, a, qa) = self.sorted[s as usize];
+            let ghost_a = a as usize >= n_own;
+            let clump_a = p.clump[a as usize];
+            let c = self.cells[a as usize];
+            let (cx, cy, cz) = (c % nx, (c / nx) % ny, c / (nx * ny));
+            let far = qa[3] + self.h_max;
+            let out_by = |k: usize| ((far / self.size[k]).ceil() as usize).min(self.dims[k]);
+            let (kx, ky, kz) = (out_by(0), out_by(1), out_by(2));
+            let (x0, x1) = (cx.saturating_sub(kx), (cx + kx).min(nx - 1));
+            for z in cz.saturating_sub(kz)..=(cz + kz).min(nz - 1) {
+                for y in cy.saturating_sub(ky)..=(cy + ky).min(ny - 1) {
+                    let base = (z * ny + y) * nx;
+                    let r = self.start[base + x0] as usize..self.start[base + x1 + 1] as usize;
+                    for &(idb, b, qb) in &self.sorted[r] {
+                        let (dx, dy, dz) = (qb[0] - qa[0], qb[1] - qa[1], qb[2] - qa[2]);
+                        let d2 = dx * dx + dy * dy + dz * dz;
+                        let cut = qa[3] + qb[3];
+                        if d2 < w2 || d2 >= cut * cut || idb == ida || (ghost_a && b as usize >= n_own) {
+                            continue;
+                        }
+                        if (clump_a != 0 && p.clump[b as usize] == clump_a) || (qb[3] > narrow && b < a) {
+                            continue;
+                        }
+                        out.push(if ida < idb { (a, b) } else { (b, a) });
+                    }
+                }
+            }
+        }
+    }
+
     /// (`threaded`: the bounding box and each particle's cell on the pool's
     /// threads; a minimum and a maximum are exact in any order.)
-    fn new(p: &Particles, skin: f64, period: &Vec3, threaded: bool) -> CellGrid {
+    fn new(p: &Particles, skin: f64, skins: &[f64], period: &Vec3, threaded: bool) -> CellGrid {
         let n = p.len();
         let shifted: Vec<Vec3>;
         let pos: &[Vec3] = if p.image.is_empty() {
@@ -1679,10 +1866,21 @@ impl CellGrid {
         let (mut start, mut sorted) = (Vec::new(), Vec::new());
         let copy = |i: usize, _: &usize| {
             let x = pos[i];
-            (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i]])
+            (p.id[i], i as u32, [x.x, x.y, x.z, p.radius[i] + 0.5 * skins[i]])
         };
         counting_sort(&[&cells], ncell, |&c| Some(c), copy, (0, 0, [0.0; 4]), &mut start, &mut sorted, threaded);
-        CellGrid { dims, reach_x: SPLIT_X, start, cells, sorted, skin }
+        // the wide particles (none where every skin is the case's: radius +
+        // skin / 2 is then at most (2 rmax + skin) / 2, at most whole / 2)
+        let narrow = 0.5 * whole;
+        let uniform = skins.iter().all(|&s| s == skin);
+        let (wide, h_max) = if uniform {
+            (Vec::new(), rmax + 0.5 * skin)
+        } else {
+            let wide: Vec<u32> = (0..sorted.len() as u32).filter(|&s| sorted[s as usize].2[3] > narrow).collect();
+            (wide, sorted.iter().map(|x| x.2[3]).fold(0.0, f64::max))
+        };
+        let size = [0, 1, 2].map(|k| ext[k] / dims[k] as f64);
+        CellGrid { dims, reach_x: SPLIT_X, start, cells, sorted, whole, size, h_max, wide }
     }
 }
 
@@ -1776,7 +1974,7 @@ pub fn particle_error(p: &Particles, i: usize, domain: &Domain) -> TalusError {
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_by_key_runs, Carry, NeighborList};
+    use super::{sort_by_key_runs, Carry, NeighborList, SkinRule};
     use crate::dim::Vec3;
     use crate::particles::{ParticleInit, Particles};
     use crate::walls::{Plane, Shape, Wall};
@@ -2033,16 +2231,190 @@ mod tests {
         }
     }
 
+    /// Particles in a box over a floor at z = 0.002 (300 of radius 0.8-1.2
+    /// mm, or `n` more densely), a fraction `fast` of them moving at up to
+    /// `top` m/s (the rest at rest), from a seed.
+    fn cloud(seed: u64, n: usize, fast: f64, top: f64) -> Particles {
+        let mut s = seed.wrapping_mul(2862933555777941757).wrapping_add(3037000493);
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let side = 0.02 * (n as f64 / 300.0).cbrt();
+        let mut p = Particles::default();
+        for id in 0..n as u64 {
+            let pos = Vec3::new(next() * side, next() * side, 0.002 + next() * side / 2.0);
+            let radius = 8e-4 + 4e-4 * next();
+            let vel = if next() < fast { Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * top * next() } else { Vec3::zeros() };
+            p.push_sphere(&ParticleInit { id, pos, vel, omega: Vec3::zeros(), radius }, 2500.0, 0);
+        }
+        p
+    }
+
+    /// The rule of these tests: skin 5e-4 m, s_k = 5e-4 |v_k| (so 1-4 skins
+    /// for speeds of 1-4 m/s).
+    fn rule() -> SkinRule {
+        SkinRule { per_speed: 5e-4, cap: 4.0 }
+    }
+
+    /// With skins of their own (a third of the particles fast, up to four
+    /// skins), the list holds exactly the pairs within r_a + r_b + (s_a +
+    /// s_b) / 2 and the floor's candidates within r + s, on one thread and
+    /// two (a cloud large enough for the threaded search; pairs within 1e-12
+    /// of their reach are not looked at); and with no rule, those within r_a
+    /// + r_b + skin, every skin the case's.
+    #[test]
+    fn a_list_with_skins_of_their_own_holds_every_pair_within_reach() {
+        let skin = 5e-4;
+        let floor = Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, 0.002), normal: Vec3::z() }), 0);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        for (seed, with_rule) in [(1u64, true), (2, true), (3, false)] {
+            let p = cloud(seed, 6000, 0.3, 4.0);
+            for threaded in [false, true] {
+                let mut nl = NeighborList::new(skin);
+                nl.threaded = threaded;
+                if with_rule {
+                    nl.skin_rule = rule();
+                    nl.skin_limit = f64::INFINITY;
+                }
+                pool.install(|| nl.build(&p, std::slice::from_ref(&floor)));
+                let s_of = |i: usize| if with_rule { rule().of(skin, f64::INFINITY, p.vel[i].norm()) } else { skin };
+                assert_eq!(nl.uniform, !with_rule);
+                if with_rule {
+                    assert!(nl.skins.iter().any(|&s| s > 3.0 * skin) && nl.skins.iter().all(|&s| (skin..=4.0 * skin).contains(&s)));
+                }
+                let listed: std::collections::HashSet<(u32, u32)> = nl.pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+                assert_eq!(listed.len(), nl.pairs.len(), "a pair listed twice");
+                let (mut within, mut wide) = (0, 0);
+                for a in 0..p.len() {
+                    for b in a + 1..p.len() {
+                        let d = (p.pos[a] - p.pos[b]).norm();
+                        let reach = p.radius[a] + p.radius[b] + 0.5 * (s_of(a) + s_of(b));
+                        if (d - reach).abs() < 1e-12 * reach {
+                            continue;
+                        }
+                        let is = listed.contains(&(a as u32, b as u32));
+                        assert_eq!(is, d < reach, "seed {seed}, threaded {threaded}: pair {a} {b} at {d:e} m, reach {reach:e} m");
+                        within += is as usize;
+                        wide += (is && d >= 2.0 * 1.2e-3 + skin) as usize;
+                    }
+                    let z = p.pos[a].z - 0.002;
+                    let cand = nl.wall_start[a + 1] > nl.wall_start[a];
+                    assert_eq!(cand, z > -p.radius[a] && z < p.radius[a] + s_of(a), "particle {a} and the floor");
+                }
+                assert!(within > 1000, "{within} pairs");
+                // pairs beyond the cells' range are there (and only) with the rule
+                assert_eq!(wide > 0, with_rule, "{wide} pairs beyond the cells' range");
+            }
+        }
+    }
+
+    /// A list that `Moved::stale` calls fresh holds every touching pair and
+    /// every touching wall contact, however the particles moved (see
+    /// `a_list_called_fresh_misses_no_contact`), with `skins_of_their_own`
+    /// or with the case's skin for all.
+    fn called_fresh_misses_nothing(
+        seed: u64,
+        a_frac: f64,
+        b_frac: f64,
+        c_frac: f64,
+        w_frac: f64,
+        jitter: f64,
+        skins_of_their_own: bool,
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        let (skin, z_floor) = (5e-4, 0.002);
+        let mut p = cloud(seed, 300, if skins_of_their_own { 0.3 } else { 0.0 }, 4.0);
+        let mut s = seed.wrapping_add(77);
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let floor = |z: f64| Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, z), normal: Vec3::z() }), 0);
+        let mut nl = NeighborList::new(skin);
+        if skins_of_their_own {
+            nl.skin_rule = rule();
+            nl.skin_limit = f64::INFINITY;
+        }
+        nl.build(&p, &[floor(z_floor)]);
+        let sk = nl.skins.clone();
+        let listed: std::collections::HashSet<(u32, u32)> = nl.pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+        // two particles just beyond each other's reach: the closest unlisted pair
+        let n = p.len();
+        let mut pick = None;
+        for a in 0..n {
+            for b in a + 1..n {
+                let gap = (p.pos[a] - p.pos[b]).norm() - (p.radius[a] + p.radius[b]) - 0.5 * (sk[a] + sk[b]);
+                if !listed.contains(&(a as u32, b as u32)) && pick.is_none_or(|(g, _, _)| gap < g) {
+                    pick = Some((gap, a, b));
+                }
+            }
+        }
+        let (gap, a, b) = pick.unwrap();
+        // every particle jittered within `jitter` of its skin, a and b pushed
+        // together by fractions of theirs
+        let mut moves = Vec::new();
+        for i in 0..n {
+            let d = if i == a || i == b {
+                let towards = (p.pos[if i == a { b } else { a }] - p.pos[i]).normalize();
+                towards * if i == a { a_frac } else { b_frac } * sk[i]
+            } else {
+                Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * jitter * sk[i] * next()
+            };
+            moves.push(d);
+        }
+        // and the particle closest to the floor that is not its candidate
+        // pushed down onto it, the floor raised by w
+        let gap_floor = |i: usize| p.pos[i].z - z_floor - p.radius[i];
+        let low = (0..n)
+            .filter(|&i| i != a && i != b && nl.wall_start[i] == nl.wall_start[i + 1])
+            .min_by(|&i, &j| gap_floor(i).total_cmp(&gap_floor(j)))
+            .unwrap();
+        let low_gap = gap_floor(low);
+        moves[low] = Vec3::new(0.0, 0.0, -c_frac * sk[low]);
+        let mut first = f64::NEG_INFINITY;
+        for (i, d) in moves.iter().enumerate() {
+            let x0 = p.pos[i];
+            p.pos[i] += d;
+            first = first.max((p.pos[i] - x0).norm() - 0.5 * sk[i]);
+        }
+        let w = w_frac * skin;
+        let domain = super::Domain { lo: Vec3::new(-1.0, -1.0, -1.0), hi: Vec3::new(1.0, 1.0, 1.0) };
+        let moved = nl.displacement(&p, &domain).unwrap();
+        proptest::prop_assert_eq!(moved.first, first);
+        let stale = moved.stale(skin, w);
+        let push = a_frac * sk[a] + b_frac * sk[b];
+        let room = 0.5 * (sk[a] + sk[b]) + gap;
+        proptest::prop_assert!(!(push > room * 1.000001) || stale, "a and b closed {} m of a {} m gap", push, room);
+        let down = c_frac * sk[low] + w;
+        proptest::prop_assert!(!(down > low_gap * 1.000001) || stale, "a particle and the floor closed {} m of a {} m gap", down, low_gap);
+        if !stale {
+            let wall = floor(z_floor + w);
+            for i in 0..n {
+                for j in i + 1..n {
+                    if (p.pos[i] - p.pos[j]).norm() < p.radius[i] + p.radius[j] {
+                        proptest::prop_assert!(listed.contains(&(i as u32, j as u32)), "pair {} {} touches, not listed", i, j);
+                    }
+                }
+                if wall.contact(0, &p.pos[i], p.radius[i]).is_some() {
+                    let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
+                    proptest::prop_assert!(hi > lo, "particle {} touches the floor, not a candidate", i);
+                }
+            }
+        }
+        Ok(())
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::test_runner::Config::with_cases(48))]
         /// A list that `Moved::stale` calls fresh holds every touching pair and
         /// every touching wall contact, however the particles moved: here two
         /// chosen particles (outside each other's reach) are pushed straight
         /// towards each other and a third (not the floor's candidate) down
-        /// towards a floor that itself moved up, by amounts up to 1.3 skins,
-        /// the rest jittered. Whenever the list is
-        /// called fresh, no contact is missing; and the push that closes a pair
-        /// beyond the skin is always called stale.
+        /// towards a floor that itself moved up, by amounts up to 1.3 of
+        /// their skins, the rest jittered. Whenever the list is called
+        /// fresh, no contact is missing; and the push that closes a pair
+        /// beyond its reach is always called stale. Every particle with the
+        /// case's skin, and (a third of them fast) skins of their own.
         #[test]
         fn a_list_called_fresh_misses_no_contact(
             seed in 0u64..1_000_000,
@@ -2051,92 +2423,9 @@ mod tests {
             c_frac in 0.0f64..1.3,
             w_frac in 0.0f64..1.3,
             jitter in 0.0f64..0.3,
+            own in proptest::bool::ANY,
         ) {
-            use crate::walls::Shape;
-            let mut s = seed.wrapping_mul(2862933555777941757).wrapping_add(3037000493);
-            let mut next = || {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64
-            };
-            let (skin, z_floor) = (5e-4, 0.002);
-            let mut p = Particles::default();
-            for id in 0..300u64 {
-                let pos = Vec3::new(next() * 0.02, next() * 0.02, z_floor + next() * 0.01);
-                let radius = 8e-4 + 4e-4 * next();
-                p.push_sphere(&ParticleInit { id, pos, vel: Vec3::zeros(), omega: Vec3::zeros(), radius }, 2500.0, 0);
-            }
-            let floor = |z: f64| Wall::new("floor", Shape::Plane(Plane { point: Vec3::new(0.0, 0.0, z), normal: Vec3::z() }), 0);
-            let mut nl = NeighborList::new(skin);
-            nl.build(&p, &[floor(z_floor)]);
-            let listed: std::collections::HashSet<(u32, u32)> = nl.pairs.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
-            // two particles just beyond each other's reach: the closest unlisted pair
-            let n = p.len();
-            let mut pick = None;
-            for a in 0..n {
-                for b in a + 1..n {
-                    let gap = (p.pos[a] - p.pos[b]).norm() - (p.radius[a] + p.radius[b]) - skin;
-                    if !listed.contains(&(a as u32, b as u32)) && pick.map_or(true, |(g, _, _)| gap < g) {
-                        pick = Some((gap, a, b));
-                    }
-                }
-            }
-            let (gap, a, b) = pick.unwrap();
-            // every particle jittered within `jitter` skins, a and b pushed together
-            let (mut d_max, mut d_second) = (0.0f64, 0.0f64);
-            let mut moves = Vec::new();
-            for i in 0..n {
-                let d = if i == a || i == b {
-                    let towards = (p.pos[if i == a { b } else { a }] - p.pos[i]).normalize();
-                    towards * if i == a { a_frac } else { b_frac } * skin
-                } else {
-                    Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize() * jitter * skin * next()
-                };
-                moves.push(d);
-            }
-            // and the particle closest to the floor that is not its candidate
-            // pushed down onto it, the floor raised by w
-            let gap_floor = |i: usize| p.pos[i].z - z_floor - p.radius[i];
-            let low = (0..n)
-                .filter(|&i| i != a && i != b && nl.wall_start[i] == nl.wall_start[i + 1])
-                .min_by(|&i, &j| gap_floor(i).total_cmp(&gap_floor(j)))
-                .unwrap();
-            let low_gap = gap_floor(low);
-            moves[low] = Vec3::new(0.0, 0.0, -c_frac * skin);
-            for (i, d) in moves.iter().enumerate() {
-                let x0 = p.pos[i];
-                p.pos[i] += d;
-                let m = (p.pos[i] - x0).norm();
-                if m > d_max {
-                    (d_max, d_second) = (m, d_max);
-                } else if m > d_second {
-                    d_second = m;
-                }
-            }
-            let w = w_frac * skin;
-            let domain = super::Domain { lo: Vec3::new(-1.0, -1.0, -1.0), hi: Vec3::new(1.0, 1.0, 1.0) };
-            let moved = nl.displacement(&p, &domain).unwrap();
-            proptest::prop_assert_eq!(moved.first, d_max);
-            let stale = moved.stale(skin, w);
-            if (a_frac + b_frac) * skin > skin + gap * 1.000001 {
-                proptest::prop_assert!(stale, "a and b closed {} m of a {} m gap past the skin", (a_frac + b_frac) * skin, gap);
-            }
-            if (c_frac + w_frac) * skin > low_gap * 1.000001 {
-                proptest::prop_assert!(stale, "a particle and the floor closed {} m of a {} m gap", (c_frac + w_frac) * skin, low_gap);
-            }
-            if !stale {
-                let wall = floor(z_floor + w);
-                for i in 0..n {
-                    for j in i + 1..n {
-                        if (p.pos[i] - p.pos[j]).norm() < p.radius[i] + p.radius[j] {
-                            proptest::prop_assert!(listed.contains(&(i as u32, j as u32)), "pair {} {} touches, not listed", i, j);
-                        }
-                    }
-                    if wall.contact(0, &p.pos[i], p.radius[i]).is_some() {
-                        let (lo, hi) = (nl.wall_start[i] as usize, nl.wall_start[i + 1] as usize);
-                        proptest::prop_assert!(hi > lo, "particle {} touches the floor, not a candidate", i);
-                    }
-                }
-            }
+            called_fresh_misses_nothing(seed, a_frac, b_frac, c_frac, w_frac, jitter, own)?;
         }
     }
 }

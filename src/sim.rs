@@ -158,6 +158,7 @@ impl Simulation {
         let skin = s.skin.unwrap_or(0.2 * rmin);
         let mut nl = NeighborList::new(skin);
         nl.period = period;
+        nl.skin_rule = crate::neighbor::SkinRule::new(dt);
         nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2);
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
@@ -435,6 +436,8 @@ impl Simulation {
         let hist = self.par.migrate(&mut st.p, &mut st.gear, hist);
         st.nl.rolling_history = self.state.nl.rolling_history;
         st.nl.period = self.state.nl.period;
+        st.nl.skin_rule = self.state.nl.skin_rule;
+        st.nl.skin_limit = st.nl.skin;
         st.nl.build_with(&st.p, &st.walls, Carry::Keyed(&hist));
         self.state = st;
     }
@@ -523,6 +526,9 @@ impl Simulation {
             if self.par.reorder_now {
                 self.next_reorder = st.step + self.case.parallel.reorder_interval;
             }
+            // the skins' limit, before the ghosts are made to cover it
+            let speed = st.p.vel[..st.p.owned()].iter().map(|v| v.norm()).fold(0.0, f64::max);
+            st.nl.skin_limit = self.par.skin_limit(&st.nl.skin_rule, st.nl.skin, speed);
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
             // one rank: the list carries its own history
             let carry = h.carry();

@@ -31,17 +31,19 @@ impl Parallel {
         let t = std::time::Instant::now();
         let signal = crate::signals::requested();
         // one maximum: the flags, the largest sum of a rank's own two largest
-        // displacements, and each rank's largest in its own slot (the two
-        // largest of those give the sum of two on different ranks)
-        let mut v = vec![0.0; 4 + self.size()];
-        v[..4].copy_from_slice(&[need as u8 as f64, error.is_some() as u8 as f64, signal.unwrap_or(0) as f64, moved.two]);
-        v[4 + self.rank()] = moved.first;
+        // displacements past half their skins, the largest past the whole
+        // skin (walls), and each rank's largest past half in its own slot
+        // (the two largest of those give the sum of two on different ranks;
+        // the other ranks' slots start at minus infinity: these can be below 0)
+        let mut v = vec![f64::NEG_INFINITY; 5 + self.size()];
+        v[..5].copy_from_slice(&[need as u8 as f64, error.is_some() as u8 as f64, signal.unwrap_or(0) as f64, moved.two, moved.wall]);
+        v[5 + self.rank()] = moved.first;
         self.comm.max_f64(&mut v);
         if v[2] > 0.0 && self.stop.is_none() {
             self.stop = Some(v[2] as i32);
         }
-        let [m1, m2] = v[4..].iter().fold([0.0, 0.0], |t, &d| top_two(t, [d, 0.0]));
-        let all = Moved { first: m1, two: v[3].max(m1 + m2) };
+        let [m1, m2] = v[5..].iter().fold([f64::NEG_INFINITY; 2], |t, &d| top_two(t, [d, f64::NEG_INFINITY]));
+        let all = Moved { first: m1, two: v[3].max(m1 + m2), wall: v[4] };
         let err = (v[1] > 0.0).then(|| self.gather_messages(error));
         let dt = t.elapsed().as_secs_f64();
         self.timers.agree += dt;

@@ -66,13 +66,15 @@ impl Parallel {
         let periodic = self.periodic();
         let boxes: Vec<(Vec3, Vec3)> = (0..p_count).map(|r| self.dec.bounds(r)).collect();
         let (mlo, mhi) = boxes[me];
+        // (as far as the widest skin of this build reaches)
+        let range = self.range + self.ghost_extra;
         // (rank, image shift, the shift in m): a particle x is sent to r as
         // image g when x + shift is within range of r's box
         let mut near: Vec<(usize, [i32; 3], Vec3)> = Vec::new();
         for g in image_shifts(&self.period) {
             let s = image_shift(&g, &self.period);
             for (r, b) in boxes.iter().enumerate() {
-                if (r != me || g != [0; 3]) && gap(&(b.0 - s), &(b.1 - s), &mlo, &mhi) < self.range {
+                if (r != me || g != [0; 3]) && gap(&(b.0 - s), &(b.1 - s), &mlo, &mhi) < range {
                     near.push((r, g, s));
                 }
             }
@@ -89,7 +91,7 @@ impl Parallel {
                         let d = (lo[k] - x[k]).max(x[k] - hi[k]).max(0.0);
                         d2 += d * d;
                     }
-                    if d2 < self.range * self.range {
+                    if d2 < range * range {
                         if r == me {
                             own_images.push((i as u32, g));
                         } else {

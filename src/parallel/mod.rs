@@ -73,6 +73,10 @@ pub struct Parallel {
     pub dec: Decomposition,
     /// Ghost range: largest interaction distance plus skin (m).
     pub range: f64,
+    /// How much farther than `range` the ghosts of this build reach (m): the
+    /// largest skin a particle has at this build beyond the case's
+    /// ([`Parallel::skin_limit`]).
+    pub ghost_extra: f64,
     /// Owned particles (local indices) each neighbour rank keeps as ghosts.
     send: Vec<(usize, Vec<u32>)>,
     /// The periodic image shift of each ghost in `send` (periodic domains only).
@@ -128,6 +132,7 @@ impl Parallel {
             comm,
             dec,
             range,
+            ghost_extra: 0.0,
             send: Vec::new(),
             send_img: Vec::new(),
             recv: Vec::new(),
@@ -151,6 +156,27 @@ impl Parallel {
 
     pub fn rank(&self) -> usize {
         self.comm.rank()
+    }
+
+    /// The largest skin the next build may give a particle, agreed by
+    /// every rank (a collective where there are several; `speed`: this
+    /// rank's largest owned particle speed), and the ghosts made to reach
+    /// that much farther. One rank alone (no ghosts, no periodic images):
+    /// no limit but the rule's own.
+    pub fn skin_limit(&mut self, rule: &crate::neighbor::SkinRule, skin: f64, speed: f64) -> f64 {
+        if rule.per_speed == 0.0 || self.period != Vec3::zeros() {
+            self.ghost_extra = 0.0;
+            return skin;
+        }
+        if self.size() == 1 {
+            self.ghost_extra = 0.0;
+            return f64::INFINITY;
+        }
+        let mut v = [speed];
+        self.comm.max_f64(&mut v);
+        let s = rule.of(skin, f64::INFINITY, v[0]);
+        self.ghost_extra = s - skin;
+        s
     }
 
     pub fn size(&self) -> usize {
