@@ -465,7 +465,17 @@ impl NeighborList {
         } else if own {
             Moved { first: top[0], two: top[0] + top[1], wall }
         } else {
-            Moved::uniform(top[0].sqrt(), top[1].sqrt(), self.skin)
+            // (fewer than two particles: the zeros the top two started from
+            // are no particle's, and under MPI must not outweigh another
+            // rank's values below zero)
+            let mut m = Moved::uniform(top[0].sqrt(), top[1].sqrt(), self.skin);
+            if n < 2 {
+                m.two = f64::NEG_INFINITY;
+            }
+            if n == 0 {
+                (m.first, m.wall) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+            }
+            m
         })
     }
 

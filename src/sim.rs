@@ -526,8 +526,10 @@ impl Simulation {
             if self.par.reorder_now {
                 self.next_reorder = st.step + self.case.parallel.reorder_interval;
             }
-            // the skins' limit, before the ghosts are made to cover it
-            let speed = st.p.vel[..st.p.owned()].iter().map(|v| v.norm()).fold(0.0, f64::max);
+            // the skins' limit, before the ghosts are made to cover it (the
+            // particles inserted on this rank join at this build too)
+            let inserted = self.par.inserted.iter().map(|r| &r.vel);
+            let speed = st.p.vel[..st.p.owned()].iter().chain(inserted).map(|v| v.norm()).fold(0.0, f64::max);
             st.nl.skin_limit = self.par.skin_limit(&st.nl.skin_rule, st.nl.skin, speed);
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
             // one rank: the list carries its own history

@@ -219,6 +219,30 @@ fn a_pour_is_bit_identical_across_ranks_and_restarts_mid_pour_on_another_count()
 }
 
 #[test]
+fn spheres_inserted_fast_get_the_same_skins_and_list_builds_on_any_rank_count() {
+    // each particle's skin grows with its speed (`SkinRule`); on several
+    // ranks the build's largest skin is agreed first, and a batch inserted
+    // at 3 m/s, faster than anything in the pile, joins at that build: its
+    // speed must count, or its skins are capped on 2 ranks and not on 1
+    let d = tempfile::tempdir().unwrap();
+    let case = write_case(d.path(), "pour.toml", |c| {
+        c.phases[0].inserts[0].count = Some(400);
+        c.phases[0].inserts[0].velocity = [0.0, 0.0, -3.0];
+        // (a rebalance rebuilds the lists: off, so the builds can be compared)
+        c.parallel.balance = talus::parallel::BalanceMode::Off;
+    });
+    let mut seen = Vec::new();
+    for p in [0, 2] {
+        let out = d.path().join(format!("fast{p}"));
+        let (ok, text, s) = talus(p, &case, &out, &["--steps", "2000"]);
+        assert!(ok, "talus on {p} ranks failed: {text}");
+        let s = s.unwrap();
+        seen.push((s["state_hash"].as_str().unwrap().to_string(), s["neighbor_builds"].as_u64().unwrap()));
+    }
+    assert_eq!(seen[0], seen[1], "(state hash, list builds) on 1 and 2 ranks");
+}
+
+#[test]
 fn a_periodic_chute_is_bit_identical_across_ranks_grids_and_restarts() {
     // cases/chute.toml, periodic along x and y: images are ghosts, serially as
     // under MPI; a pair across a periodic face is evaluated from the owners'
