@@ -588,7 +588,7 @@ impl NeighborList {
     /// owned particles only.
     pub fn build_with(&mut self, p: &Particles, walls: &[Wall], carry: Carry) {
         self.set_skins(p);
-        let grid = CellGrid::new(p, self.skin, &self.skins, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
+        let grid = CellGrid::new(p, self.skin, &self.skins, self.uniform, &self.period, self.threaded && p.len() > 2 * ROW_BLOCK);
         // the last build's rows are read pair by pair where they are of the
         // same particles in the same places (no periodic images)
         let read;
@@ -1811,9 +1811,10 @@ impl CellGrid {
         }
     }
 
-    /// (`threaded`: the bounding box and each particle's cell on the pool's
+    /// (`uniform`: every one of `skins` is `skin`, as `set_skins` found;
+    /// `threaded`: the bounding box and each particle's cell on the pool's
     /// threads; a minimum and a maximum are exact in any order.)
-    fn new(p: &Particles, skin: f64, skins: &[f64], period: &Vec3, threaded: bool) -> CellGrid {
+    fn new(p: &Particles, skin: f64, skins: &[f64], uniform: bool, period: &Vec3, threaded: bool) -> CellGrid {
         let n = p.len();
         let shifted: Vec<Vec3>;
         let pos: &[Vec3] = if p.image.is_empty() {
@@ -1882,7 +1883,6 @@ impl CellGrid {
         // the wide particles (none where every skin is the case's: radius +
         // skin / 2 is then at most (2 rmax + skin) / 2, at most whole / 2)
         let narrow = 0.5 * whole;
-        let uniform = skins.iter().all(|&s| s == skin);
         let (wide, h_max) = if uniform {
             (Vec::new(), rmax + 0.5 * skin)
         } else {

@@ -528,8 +528,10 @@ impl Simulation {
             }
             // the skins' limit, before the ghosts are made to cover it (the
             // particles inserted on this rank join at this build too)
-            let inserted = self.par.inserted.iter().map(|r| &r.vel);
-            let speed = st.p.vel[..st.p.owned()].iter().chain(inserted).map(|v| v.norm()).fold(0.0, f64::max);
+            // (a largest speed is the same in any order: the few inserted first)
+            let inserted = self.par.inserted.iter().map(|r| r.vel.norm()).fold(0.0, f64::max);
+            let p = &st.p;
+            let speed = || p.vel[..p.owned()].iter().map(|v| v.norm()).fold(inserted, f64::max);
             st.nl.skin_limit = self.par.skin_limit(&st.nl.skin_rule, st.nl.skin, speed);
             let h = self.par.migrate_from_list(&mut st.p, &mut st.gear, &st.nl);
             // one rank: the list carries its own history

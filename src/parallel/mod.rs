@@ -159,11 +159,11 @@ impl Parallel {
     }
 
     /// The largest skin the next build may give a particle, agreed by
-    /// every rank (a collective where there are several; `speed`: this
-    /// rank's largest owned particle speed), and the ghosts made to reach
-    /// that much farther. One rank alone (no ghosts, no periodic images):
-    /// no limit but the rule's own.
-    pub fn skin_limit(&mut self, rule: &crate::neighbor::SkinRule, skin: f64, speed: f64) -> f64 {
+    /// every rank (a collective where there are several; `speed` gives this
+    /// rank's largest owned particle speed, asked for only then), and the
+    /// ghosts made to reach that much farther. One rank alone (no ghosts, no
+    /// periodic images): no limit but the rule's own.
+    pub fn skin_limit(&mut self, rule: &crate::neighbor::SkinRule, skin: f64, speed: impl FnOnce() -> f64) -> f64 {
         if rule.per_speed == 0.0 || self.period != Vec3::zeros() {
             self.ghost_extra = 0.0;
             return skin;
@@ -172,7 +172,7 @@ impl Parallel {
             self.ghost_extra = 0.0;
             return f64::INFINITY;
         }
-        let mut v = [speed];
+        let mut v = [speed()];
         self.comm.max_f64(&mut v);
         let s = rule.of(skin, f64::INFINITY, v[0]);
         self.ghost_extra = s - skin;
