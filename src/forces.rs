@@ -27,6 +27,11 @@ pub const MIN_LEN: usize = 256;
 /// How many particles ahead the gather fetches the pair results it will read.
 const PREFETCH: usize = 6;
 
+/// How many pairs ahead the pair sweep fetches the partner's position,
+/// velocity and spin (the cell order keeps them near, but not in order:
+/// loads the processor cannot foresee).
+const ROW_PREFETCH: usize = 8;
+
 /// Everything the sweep needs besides state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SweepSettings {
@@ -323,6 +328,17 @@ impl<L: ContactLaw> PairEval<'_, L> {
         let all = pairs[base..k1].iter().zip(hist.iter_mut()).zip(touch.iter_mut().zip(out.iter_mut())).zip(&consts[base..k1]).enumerate();
         for (j, (((&(a, b), hist), (touch, out)), pair)) in all {
             let (a, b) = (a as usize, b as usize);
+            #[cfg(target_arch = "x86_64")]
+            if base + j + ROW_PREFETCH < k1 {
+                let c = pairs[base + j + ROW_PREFETCH].1 as usize;
+                // SAFETY: a prefetch is only a hint, and the addresses are in bounds
+                unsafe {
+                    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                    _mm_prefetch::<_MM_HINT_T0>(pr.pos.as_ptr().add(c) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(pr.vel.as_ptr().add(c) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(pr.omega.as_ptr().add(c) as *const i8);
+                }
+            }
             // invariant: a pair whose flag is down has zeros in `out`
             // (written here by the first sweep after a build)
             let Some(g) = shapes.pair(pr, a, b) else {
