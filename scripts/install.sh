@@ -15,7 +15,11 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 pip=(python3 -m pip install -q --disable-pip-version-check --root-user-action=ignore)
 "${pip[@]}" -r requirements.txt
+t=$SECONDS
 cargo build --release --quiet
+echo "install.sh: cargo build took $((SECONDS - t)) s"
+t=$SECONDS
 # the Python module (python/: pyo3, built by maturin through pip; serial, no MPI)
 "${pip[@]}" ./python
+echo "install.sh: Python module took $((SECONDS - t)) s"
 echo "install.sh: done ($(./target/release/talus --version); Python module talus $(python3 -c 'import talus; print(talus.__version__)'))"

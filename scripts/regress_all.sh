@@ -22,7 +22,9 @@ failed=()
 for c in "${cases[@]}"; do
   args=(regress "$c" "${update[@]}")
   [ -n "$junit" ] && { mkdir -p "$junit"; args+=(--junit "$junit/$(basename "$c" .toml).xml"); }
+  t=$SECONDS
   python3 -m compare "${args[@]}" || failed+=("$c")
+  echo "regress_all.sh: $c took $((SECONDS - t)) s"
 done
 if [ ${#failed[@]} -gt 0 ]; then
   echo "regress_all.sh: outside tolerance or failed: ${failed[*]}" >&2

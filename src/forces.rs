@@ -16,6 +16,7 @@ use crate::fixed::from_fixed;
 use crate::material::{PairMaterial, PairTable};
 use crate::neighbor::{row_blocks_of, NeighborList, PairOut, ROW_BLOCK};
 use crate::particles::Particles;
+use crate::prefetch::prefetch;
 use crate::walls::{add_load, carry_history, merge_coincident, Wall, WallHit};
 use rayon::prelude::*;
 use std::sync::atomic::Ordering;
@@ -242,15 +243,10 @@ fn pair_forces<L: ContactLaw>(
     let (start, incident, out, touched) = (&nl.incident_start, &nl.incident, &nl.pair_out, &*touched);
     let gather = |(i, (f, t)): (usize, (&mut Vec3, &mut Vec3))| {
         // the pair results a later particle will read, fetched ahead
-        #[cfg(target_arch = "x86_64")]
         if i + PREFETCH < n_own {
             let j = i + PREFETCH;
             for &k in &incident[start[j] as usize..start[j + 1] as usize] {
-                // SAFETY: a prefetch is only a hint, and the address is in bounds
-                unsafe {
-                    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                    _mm_prefetch::<_MM_HINT_T0>(out.as_ptr().add(k as usize) as *const i8);
-                }
+                prefetch(out, k as usize);
             }
         }
         if !touched[i].load(Ordering::Relaxed) {
@@ -328,16 +324,11 @@ impl<L: ContactLaw> PairEval<'_, L> {
         let all = pairs[base..k1].iter().zip(hist.iter_mut()).zip(touch.iter_mut().zip(out.iter_mut())).zip(&consts[base..k1]).enumerate();
         for (j, (((&(a, b), hist), (touch, out)), pair)) in all {
             let (a, b) = (a as usize, b as usize);
-            #[cfg(target_arch = "x86_64")]
             if base + j + ROW_PREFETCH < k1 {
                 let c = pairs[base + j + ROW_PREFETCH].1 as usize;
-                // SAFETY: a prefetch is only a hint, and the addresses are in bounds
-                unsafe {
-                    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                    _mm_prefetch::<_MM_HINT_T0>(pr.pos.as_ptr().add(c) as *const i8);
-                    _mm_prefetch::<_MM_HINT_T0>(pr.vel.as_ptr().add(c) as *const i8);
-                    _mm_prefetch::<_MM_HINT_T0>(pr.omega.as_ptr().add(c) as *const i8);
-                }
+                prefetch(&pr.pos, c);
+                prefetch(&pr.vel, c);
+                prefetch(&pr.omega, c);
             }
             // invariant: a pair whose flag is down has zeros in `out`
             // (written here by the first sweep after a build)

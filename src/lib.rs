@@ -26,6 +26,7 @@ pub mod order;
 pub mod output;
 pub mod overrides;
 pub mod particles;
+pub mod prefetch;
 pub mod run;
 pub mod signals;
 pub mod sim;

@@ -16,6 +16,7 @@ use crate::contact::{ContactLaw, PairInertia};
 use crate::dim::Vec3;
 use crate::error::TalusError;
 use crate::particles::Particles;
+use crate::prefetch::prefetch;
 use crate::walls::Wall;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -1418,16 +1419,8 @@ impl Rows<'_> {
             // the history of a particle a few places on, fetched ahead: the
             // history is in order of ids, the rows in storage order, so each
             // row's run would otherwise start with a miss of the cache
-            #[cfg(target_arch = "x86_64")]
             if let (OldPairs::Keyed { pairs: old_pair, first }, true) = (old, a + HIST_PREFETCH < end) {
-                let k = first[a + HIST_PREFETCH] as usize;
-                if k < old_pair.len() {
-                    // SAFETY: a prefetch is only a hint, and the address is in bounds
-                    unsafe {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        _mm_prefetch::<_MM_HINT_T0>(old_pair.as_ptr().add(k) as *const i8);
-                    }
-                }
+                prefetch(old_pair, first[a + HIST_PREFETCH] as usize);
             }
             let places = seg[a] as usize - off..seg[a + 1] as usize - off;
             if places.is_empty() {
