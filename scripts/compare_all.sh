@@ -26,10 +26,12 @@ done
 # the case files themselves, exported (talus export) to LIGGGHTS and YADE and compared
 # column by column; where the two references disagree, the convention that explains it
 # (H1-small and the shear cell: not explained here, up to 15 more talus runs each;
-# the hand-written H1 decks in --full)
+# the pile: explained in --full only; the hand-written H1 decks in --full)
 for c in SC-wall SC-pair SC-oblique SC-wall-hooke SC-pair-hooke SC-oblique-hooke pile shear-cell drag-c1-bed1 H1-small; do
   extra=()
   case "$c" in H1-small|shear-cell) extra=(--no-explain) ;; esac
+  # the pile's explanation (15 more talus runs, 2.5 min) reports, it does not fail: in --full
+  [ "$c" = pile ] && [ $full = 0 ] && extra=(--no-explain)
   python3 -m compare "cases/$c.toml" --engines "$h1_engines" "${extra[@]}" --out "$out/case-$c" > "$out-case-$c.log" 2>&1 \
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   echo "compare cases/$c.toml ($h1_engines, exported): within tolerance (at $((SECONDS - t0)) s)"
