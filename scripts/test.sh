@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 t0=$SECONDS
 lap() { echo "test.sh: $1 done at $((SECONDS - t0)) s"; }
 # the release code without link-time optimisation (Cargo.toml's `ci` profile, target/ci/):
-# the same results, and the test binaries link in a third of the time
+# the same results, built in about a third of the time
 cargo test --profile ci -- --test-threads=2
 lap 'cargo test'
 cargo bench --profile ci --no-run --quiet
