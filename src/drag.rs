@@ -117,6 +117,10 @@ pub struct DragCase {
     pub material: Material,
     #[serde(skip)]
     pub path: PathBuf,
+    /// Beds run side by side, one thread each (`talus drag --threads`; default:
+    /// the cores available).
+    #[serde(skip)]
+    pub threads: Option<usize>,
 }
 
 impl DragCase {
@@ -395,11 +399,16 @@ impl Observer for DragSeries {
 }
 
 /// Prepare one bed: the granules grow to their full size, then settle. Returns
-/// the simulation at the start of the drag and the bed's case.
-fn prepare_bed(dc: &DragCase, seed: u64) -> Result<(Simulation, Case), TalusError> {
+/// the simulation at the start of the drag and the bed's case. `threads`, where
+/// given, is the simulation's thread count (not written into the case).
+fn prepare_bed(dc: &DragCase, seed: u64, threads: Option<usize>) -> Result<(Simulation, Case), TalusError> {
     let d = &dc.drag;
     let (case, radii) = dc.bed_case(seed)?;
-    let mut sim = Simulation::new(case.clone())?;
+    let mut run_case = case.clone();
+    if threads.is_some() {
+        run_case.parallel.threads = threads;
+    }
+    let mut sim = Simulation::new(run_case)?;
     let dt = sim.dt();
     // growth (friction as set)
     let mut grow_mat = dc.material.clone();
@@ -419,10 +428,16 @@ fn prepare_bed(dc: &DragCase, seed: u64) -> Result<(Simulation, Case), TalusErro
     Ok((sim, case))
 }
 
-/// Prepare one bed and drag the cylinder through it.
+/// Prepare one bed and drag the cylinder through it (on the threads the case
+/// gives, by default the cores).
 pub fn run_bed(dc: &DragCase, seed: u64) -> Result<BedResult, TalusError> {
+    run_bed_on(dc, seed, None)
+}
+
+/// `run_bed` on `threads` threads where given.
+fn run_bed_on(dc: &DragCase, seed: u64, threads: Option<usize>) -> Result<BedResult, TalusError> {
     let d = &dc.drag;
-    let (mut sim, _) = prepare_bed(dc, seed)?;
+    let (mut sim, _) = prepare_bed(dc, seed, threads)?;
     let dt = sim.dt();
     let cyl = sim.wall_index("cylinder").expect("made by bed_case");
     // drag: the series is an observer of the steps
@@ -455,7 +470,7 @@ pub fn write_bed_case(dc: &DragCase, seed: u64, out: &Path) -> Result<PathBuf, T
             dc.path.display()
         )));
     }
-    let (sim, mut case) = prepare_bed(dc, seed)?;
+    let (sim, mut case) = prepare_bed(dc, seed, None)?;
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     let stem = format!("{}-bed{seed}", d.id);
     let csv = out.join(format!("{stem}.csv"));
@@ -512,6 +527,73 @@ pub fn write_bed_case(dc: &DragCase, seed: u64, out: &Path) -> Result<PathBuf, T
     Ok(toml)
 }
 
+/// Every bed of a drag case, in the order of its seeds. The beds are
+/// independent, so they run side by side, one thread each, on as many threads
+/// as `threads` (`talus drag --threads`; by default the cores) and no more than
+/// there are beds: a bed of a few hundred granules gains little from threads of
+/// its own, and one simulation's results are the same bits on any thread count,
+/// so each bed's state hash is the same as when the beds ran one after another.
+/// On an error the study stops: the beds already running finish, no other
+/// starts, and the error returned is `between`'s, else that of the first
+/// failing bed in seed order (as when they ran one after another).
+fn run_beds(dc: &DragCase, mut between: impl FnMut() -> Result<(), TalusError>) -> Result<Vec<BedResult>, TalusError> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let seeds = &dc.drag.seeds;
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let workers = dc.threads.unwrap_or(cores).clamp(1, seeds.len().max(1));
+    let (next, stop) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let mut slots: Vec<Option<BedResult>> = seeds.iter().map(|_| None).collect();
+    let mut failed: Option<(usize, TalusError)> = None;
+    let mut interrupted = None;
+    std::thread::scope(|s| {
+        let (tx, rx) = std::sync::mpsc::channel();
+        for _ in 0..workers {
+            let (tx, next, stop) = (tx.clone(), &next, &stop);
+            s.spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    if k >= seeds.len() {
+                        break;
+                    }
+                    let r = run_bed_on(dc, seeds[k], Some(1));
+                    let bad = r.is_err();
+                    if tx.send((k, r)).is_err() || bad {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        // the results as they come: ends when every worker has stopped
+        for (k, r) in rx {
+            match r {
+                Ok(b) => {
+                    slots[k] = Some(b);
+                    if interrupted.is_none() {
+                        if let Err(e) = between() {
+                            interrupted = Some(e);
+                            stop.store(true, Ordering::Relaxed);
+                        }
+                    }
+                }
+                Err(e) => {
+                    stop.store(true, Ordering::Relaxed);
+                    if failed.as_ref().is_none_or(|(j, _)| k < *j) {
+                        failed = Some((k, e));
+                    }
+                }
+            }
+        }
+    });
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
+    if let Some((_, e)) = failed {
+        return Err(e);
+    }
+    Ok(slots.into_iter().map(|b| b.expect("every bed ran")).collect())
+}
+
 /// Run a drag case over its beds; writes `summary.json` (`mean_drag_n`,
 /// `std_drag_n`, `beds`), `drag_vs_displacement.csv` (mean and standard deviation
 /// over the beds at each displacement) and `beds.csv` (each bed's mean drag).
@@ -519,16 +601,12 @@ pub fn run(dc: &DragCase, out: &Path) -> Result<Map<String, Value>, TalusError> 
     run_with(dc, out, || Ok(()))
 }
 
-/// `run`, calling `between` after each bed: an error from it stops the study
-/// there (the Python module checks for Ctrl-C so).
-pub fn run_with(dc: &DragCase, out: &Path, mut between: impl FnMut() -> Result<(), TalusError>) -> Result<Map<String, Value>, TalusError> {
+/// `run`, calling `between` (on the calling thread) after each bed: an error
+/// from it stops the study there (the Python module checks for Ctrl-C so).
+pub fn run_with(dc: &DragCase, out: &Path, between: impl FnMut() -> Result<(), TalusError>) -> Result<Map<String, Value>, TalusError> {
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     let start = std::time::Instant::now();
-    let mut beds = Vec::new();
-    for &seed in &dc.drag.seeds {
-        beds.push(run_bed(dc, seed)?);
-        between()?;
-    }
+    let beds = run_beds(dc, between)?;
     let wall = start.elapsed().as_secs_f64();
     let n = beds.len() as f64;
     let means: Vec<f64> = beds.iter().map(|b| b.mean_drag).collect();
@@ -588,4 +666,51 @@ pub fn run_with(dc: &DragCase, out: &Path, mut between: impl FnMut() -> Result<(
     s.insert("wall_clock_s".into(), json!(wall));
     std::fs::write(out.join("summary.json"), serde_json::to_string_pretty(&s).unwrap() + "\n").map_err(io)?;
     Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// c1 cut short: 150 granules, three beds, a millimetre of travel.
+    fn short(threads: usize) -> DragCase {
+        let mut dc = DragCase::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/drag/c1.toml")).unwrap();
+        let d = &mut dc.drag;
+        (d.count, d.growth_time, d.settle_time, d.travel, d.average_window) = (150, 0.002, 0.001, 0.001, [0.0002, 0.0008]);
+        d.seeds = vec![3, 1, 2];
+        dc.threads = Some(threads);
+        dc
+    }
+
+    #[test]
+    fn beds_side_by_side_give_the_bits_of_beds_one_after_another() {
+        let one = run_beds(&short(1), || Ok(())).unwrap();
+        let three = run_beds(&short(3), || Ok(())).unwrap();
+        // and each bed alone, its simulation on the default threads
+        let alone: Vec<BedResult> = [3, 1, 2].iter().map(|&s| run_bed(&short(1), s).unwrap()).collect();
+        for beds in [&three, &alone] {
+            assert_eq!(beds.iter().map(|b| b.seed).collect::<Vec<_>>(), vec![3, 1, 2]);
+            for (a, b) in one.iter().zip(beds.iter()) {
+                assert_eq!((a.seed, a.steps, &a.state_hash), (b.seed, b.steps, &b.state_hash));
+                assert_eq!(a.series, b.series, "bed {}", a.seed);
+                assert!(a.mean_drag > 0.0, "bed {}: {}", a.seed, a.mean_drag);
+            }
+        }
+        // the beds differ from each other
+        assert_ne!(one[0].state_hash, one[1].state_hash);
+    }
+
+    #[test]
+    fn an_error_between_beds_stops_the_study() {
+        for threads in [1, 2] {
+            let mut calls = 0;
+            let r = run_beds(&short(threads), || {
+                calls += 1;
+                Err(TalusError::Run("interrupted".into()))
+            });
+            assert!(matches!(&r, Err(TalusError::Run(m)) if m == "interrupted"), "{threads} threads");
+            // called once: after the first bed to finish (the others running then finish, no more start)
+            assert_eq!(calls, 1, "{threads} threads");
+        }
+    }
 }

@@ -58,6 +58,9 @@ enum Cmd {
         /// (<id>-bed<SEED>.toml and .csv in the output folder) for `talus run` and `talus export`.
         #[arg(long, value_name = "SEED")]
         bed_case: Option<u64>,
+        /// Beds run side by side, one thread each (default: the cores available).
+        #[arg(long, value_name = "N", value_parser = at_least_one)]
+        threads: Option<usize>,
     },
     /// Write a case as an input for a reference code (LIGGGHTS 3.8), with its particle and mesh files,
     /// writing the same probes as talus's probes.csv; what the code cannot run is refused naming the key.
@@ -180,8 +183,9 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Cmd::Drag { case, out, bed_case } => {
-            let dc = talus::drag::DragCase::load(&case)?;
+        Cmd::Drag { case, out, bed_case, threads } => {
+            let mut dc = talus::drag::DragCase::load(&case)?;
+            dc.threads = threads;
             let out = out.unwrap_or_else(|| PathBuf::from("out").join("drag").join(&dc.drag.id));
             if let Some(seed) = bed_case {
                 let f = talus::drag::write_bed_case(&dc, seed, &out)?;
@@ -231,5 +235,13 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             println!("wrote {} particles to {}", inits.len(), out.display());
             Ok(ExitCode::SUCCESS)
         }
+    }
+}
+
+/// A thread count on the command line: a whole number, at least 1.
+fn at_least_one(v: &str) -> Result<usize, String> {
+    match v.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("`{v}` is not a thread count (a whole number, at least 1)")),
     }
 }

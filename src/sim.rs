@@ -195,7 +195,7 @@ impl Simulation {
             clumps,
             inserts,
         };
-        let pool = std::sync::Arc::new(thread_pool(&case, &par)?);
+        let pool = thread_pool(&case, &par)?;
         let mut set = set;
         let mut par = par;
         if pool.current_num_threads() > 1 {
@@ -908,26 +908,44 @@ fn list_inits(path: &str, list: &[ParticleEntry]) -> Result<Vec<ParticleInit>, T
 
 /// The rank's threads: `[parallel] threads`, or the cores available to the
 /// process shared among the ranks (at least one each).
-fn thread_pool(case: &Case, par: &Parallel) -> Result<rayon::ThreadPool, TalusError> {
+///
+/// The calling thread is one of the pool's threads: a parallel part of the
+/// step then starts on it at once and the other threads join, instead of the
+/// caller handing every part to the pool and sleeping until it comes back,
+/// and there are no more threads than asked for to share the cores. Measured
+/// on H1-small's whole run on 2 threads: 5.99 -> 6.6 million particle-steps/s.
+/// A thread can belong to one such pool only, and for good (rayon keeps it),
+/// so each thread keeps the first it makes (thread-local) and every later
+/// simulation on that thread with the same thread count shares it: the
+/// second simulation of a test or of a Python session, or each bed of a drag
+/// study, gains as the first does (measured below, `Simulation::new`'s callers
+/// on other threads). A simulation that asks such a thread for another count,
+/// or one made on a thread of some other pool, gets a pool of its own threads.
+fn thread_pool(case: &Case, par: &Parallel) -> Result<std::sync::Arc<rayon::ThreadPool>, TalusError> {
+    use std::sync::Arc;
+    thread_local! {
+        static OWN: std::cell::RefCell<Option<(usize, Arc<rayon::ThreadPool>)>> = const { std::cell::RefCell::new(None) };
+    }
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let n = case.parallel.threads.unwrap_or((cores / par.size()).max(1));
-    // The process's main thread (`talus run`) is one of the pool's threads:
-    // a parallel part of the step then starts on it at once and the other
-    // threads join, instead of the main thread handing every part to the pool
-    // and sleeping until it comes back, and there are no more threads than
-    // asked for to share the cores. Measured on H1-small's whole run on 2
-    // threads: 5.99 -> 6.6 million particle-steps/s. A thread can belong to one
-    // such pool only (rayon keeps it for good), so a second simulation in the
-    // process, or one made on any other thread (tests, Python), gets a pool of
-    // its own threads.
-    if n > 1 && std::thread::current().name() == Some("main") {
-        if let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(n).use_current_thread().build() {
+    if n > 1 {
+        let own = OWN.with(|own| {
+            let mut own = own.borrow_mut();
+            if own.is_none() && rayon::current_thread_index().is_none() {
+                if let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(n).use_current_thread().build() {
+                    *own = Some((n, Arc::new(pool)));
+                }
+            }
+            own.as_ref().filter(|(m, _)| *m == n).map(|(_, pool)| pool.clone())
+        });
+        if let Some(pool) = own {
             return Ok(pool);
         }
     }
     rayon::ThreadPoolBuilder::new()
         .num_threads(n)
         .build()
+        .map(Arc::new)
         .map_err(|e| TalusError::Run(format!("{}: cannot start {n} threads: {e}", case.path.display())))
 }
 
