@@ -701,6 +701,83 @@ mod tests {
     }
 
     #[test]
+    fn growing_radii_keeps_the_list_and_the_bits_of_a_new_list_each_step() {
+        // discs, dumbbells (clumps) and ellipses: the growth of prepare_bed,
+        // once keeping the list (set_radii), once with a new list every step
+        for id in ["c1", "d1", "e1"] {
+            let mut dc = DragCase::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("cases/drag/{id}.toml"))).unwrap();
+            dc.drag.count = 150;
+            let (case, radii) = dc.bed_case(2).unwrap();
+            const N: u64 = 400;
+            let grow = |rebuild: bool| {
+                let mut sim = Simulation::new(case.clone()).unwrap();
+                let builds = sim.state().nl.builds;
+                // fast, so that the growth, not the motion, uses up the skin
+                for k in 1..=N {
+                    let s = 0.7 + 0.3 * k as f64 / N as f64;
+                    sim.set_radii(|id| radii[(id - 1) as usize] * s);
+                    if rebuild {
+                        sim.rebuild_list();
+                    }
+                    sim.step().unwrap();
+                }
+                (sim.state_hash(), sim.state().nl.builds - builds, sim.contacts())
+            };
+            let (kept, anew) = (grow(false), grow(true));
+            assert_eq!(kept.0, anew.0, "{id}: state hash, list kept against a new list each step");
+            assert!(kept.2 > 100, "{id}: {} contacts at the end (the bed is compacted)", kept.2);
+            assert!(anew.1 >= N && kept.1 < N / 4, "{id}: {} builds kept, {} anew", kept.1, anew.1);
+        }
+    }
+
+    #[test]
+    fn spheres_at_rest_grown_into_contact_are_found_with_the_list_kept() {
+        // two spheres at rest 3 skins apart and one 1.5 skins above the floor,
+        // no gravity: only the growth (2 skins each over 200 steps) brings
+        // them into contact, so the list kept must be rebuilt for the growth
+        use crate::builder::CaseBuilder;
+        let (r, skin) = (1e-3, 1e-4);
+        let m = Material { name: "m".into(), youngs_modulus: 1e7, poisson_ratio: 0.3, density: 2500.0, restitution: 0.5, friction: 0.3, rolling_friction: 0.0 };
+        let pair = vec![ParticleEntry::at(1, [0.0, 0.0, 0.0], r), ParticleEntry::at(2, [2.0 * r + 3.0 * skin, 0.0, 0.0], r)];
+        let on_floor = ParticleEntry::at(3, [-0.004, 0.0, r + 1.5 * skin - 0.005], r);
+        // the three together, and the one on the floor alone (no pair: only the walls' test)
+        for list in [[pair, vec![on_floor.clone()]].concat(), vec![on_floor]] {
+            let n = list.len();
+            let case = CaseBuilder::new(Dimension::Three)
+                .timestep(crate::case::TimeStep::Seconds(1e-6))
+                .gravity([0.0; 3])
+                .skin(skin)
+                .domain([-0.01; 3], [0.01; 3])
+                .contact(ContactSection::new(ModelName::Hertz))
+                .material(m.clone())
+                .particle_list("m", list)
+                .wall(WallSection::plane("floor", "m", [0.0, 0.0, -0.005], [0.0, 0.0, 1.0]))
+                .phase(PhaseSection::new("run", 1.0))
+                .build(Path::new("grow.toml"))
+                .unwrap();
+            let grow = |rebuild: bool| {
+                let mut sim = Simulation::new(case.clone()).unwrap();
+                let builds = sim.state().nl.builds;
+                for k in 1..=200 {
+                    let s = 1.0 + 2.0 * skin / r * k as f64 / 200.0;
+                    sim.set_radii(|_| r * s);
+                    if rebuild {
+                        sim.rebuild_list();
+                    }
+                    sim.step().unwrap();
+                }
+                let v: Vec<f64> = sim.particles().vel[..n].iter().map(|v| v.norm()).collect();
+                (sim.state_hash(), sim.state().nl.builds - builds, v)
+            };
+            let (kept, anew) = (grow(false), grow(true));
+            assert_eq!(kept.0, anew.0, "{n} spheres: state hash, list kept against a new list each step");
+            // every sphere touched: pushed apart and off the floor
+            assert!(kept.2.iter().all(|&v| v > 0.0), "{n} spheres: speeds {:?}", kept.2);
+            assert!(kept.1 < 20 && anew.1 >= 200, "{n} spheres: {} builds kept, {} anew", kept.1, anew.1);
+        }
+    }
+
+    #[test]
     fn an_error_between_beds_stops_the_study() {
         for threads in [1, 2] {
             let mut calls = 0;

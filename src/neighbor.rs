@@ -222,6 +222,10 @@ pub struct NeighborList {
     pub uniform: bool,
     /// Largest distance any wall has moved since the last build (m).
     pub wall_moved: f64,
+    /// At least the largest growth of any particle's radius since the last
+    /// build (m; `Simulation::set_radii`, which keeps the list where it can).
+    #[serde(default)]
+    pub grown: f64,
     pub builds: u64,
 }
 
@@ -362,13 +366,23 @@ impl Moved {
     /// the largest: a few fast particles need not have moved towards each
     /// other); with one skin for all, d1 + d2 > skin. A wall candidate was
     /// listed within r + s of the feature, so the same holds for the largest
-    /// d_k - s_k plus `wall_moved`. A margin of 1e-9 of the skin covers the
+    /// d_k - s_k plus `wall_moved`. Radii that grew by at most `grown` since
+    /// the build reach that much further: a pair needs 2 `grown` more, a
+    /// wall contact `grown`. A margin of 1e-9 of the skin covers the
     /// rounding of the distances. Nothing physical depends on when a list is
     /// rebuilt (history lives only while a contact touches), so this changes
     /// speed only.
-    pub fn stale(&self, skin: f64, wall_moved: f64) -> bool {
+    pub fn stale(&self, skin: f64, wall_moved: f64, grown: f64) -> bool {
         let margin = -1e-9 * skin;
-        self.two > margin || self.wall + wall_moved > margin
+        self.two + 2.0 * grown > margin || self.wall + wall_moved + grown > margin
+    }
+}
+
+/// R*, m* of particle i with a wall (curved: in series with its radius).
+fn wall_inertia(wall: &Wall, p: &Particles, i: usize) -> PairInertia {
+    match wall.curvature_radius() {
+        None => PairInertia::wall(p.radius[i], p.mass[i]),
+        Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
     }
 }
 
@@ -391,7 +405,7 @@ impl NeighborList {
     /// from this list's own particles' displacements. Also checks that every
     /// particle is finite and inside the domain.
     pub fn needs_rebuild(&self, p: &Particles, domain: &Domain) -> Result<bool, TalusError> {
-        Ok(self.displacement(p, domain)?.stale(self.skin, self.wall_moved))
+        Ok(self.displacement(p, domain)?.stale(self.skin, self.wall_moved, self.grown))
     }
 
     /// How far the owned particles moved since the last build against their
@@ -623,7 +637,25 @@ impl NeighborList {
             self.x_ref.extend((0..p.owned()).map(|i| p.list_pos(i, &self.period)));
         }
         self.wall_moved = 0.0;
+        self.grown = 0.0;
         self.builds += 1;
+    }
+
+    /// The particles' radii and masses changed since the build, no radius
+    /// by more than `grown` (m) up (`Simulation::set_radii`; one rank, no
+    /// ghosts): the list is kept, and holds every pair and wall contact that
+    /// can touch until [`Moved::stale`] says otherwise, counting `grown`; the
+    /// wall candidates' R*, m* and the law's constants are made again from
+    /// the new radii and masses, as a build would make them. The pairs that
+    /// touch, their history and every result are then those of a new list.
+    pub fn radii_changed(&mut self, p: &Particles, walls: &[Wall], grown: f64) {
+        self.grown += grown.max(0.0);
+        for i in 0..p.owned().min(self.wall_start.len().saturating_sub(1)) {
+            for k in self.wall_start[i] as usize..self.wall_start[i + 1] as usize {
+                self.wall_inertia[k] = wall_inertia(&walls[self.wall_feat[k].0 as usize], p, i);
+            }
+        }
+        self.law_constants.forget();
     }
 
     /// Each particle's skin for this build (`skins`, `uniform`): the case's
@@ -1036,10 +1068,7 @@ impl WallFind<'_> {
                     if periodic {
                         out.image.extend(std::iter::repeat(*g).take(feats.len()));
                     }
-                    let pi = match wall.curvature_radius() {
-                        None => PairInertia::wall(p.radius[i], p.mass[i]),
-                        Some(rw) => PairInertia::curved_wall(p.radius[i], rw, p.mass[i]),
-                    };
+                    let pi = wall_inertia(wall, p, i);
                     for &f in &feats {
                         out.inertia.push(pi);
                         out.feat.push((w as u16, f));
@@ -1915,6 +1944,11 @@ struct Filled<L: ContactLaw> {
 }
 
 impl LawConstants {
+    /// Forget the constants kept (the particles' radii or masses changed):
+    /// the next sweep computes them again.
+    pub fn forget(&mut self) {
+        self.build = 0;
+    }
     /// Whether these are `law`'s constants for list build `build`.
     pub fn holds<L: ContactLaw>(&self, law: L, build: u64) -> bool {
         self.build == build && self.data.as_ref().and_then(|d| d.downcast_ref::<Filled<L>>()).is_some_and(|f| f.law == law)
@@ -2384,7 +2418,7 @@ mod tests {
         let domain = super::Domain { lo: Vec3::new(-1.0, -1.0, -1.0), hi: Vec3::new(1.0, 1.0, 1.0) };
         let moved = nl.displacement(&p, &domain).unwrap();
         proptest::prop_assert_eq!(moved.first, first);
-        let stale = moved.stale(skin, w);
+        let stale = moved.stale(skin, w, 0.0);
         let push = a_frac * sk[a] + b_frac * sk[b];
         let room = 0.5 * (sk[a] + sk[b]) + gap;
         proptest::prop_assert!(!(push > room * 1.000001) || stale, "a and b closed {} m of a {} m gap", push, room);

@@ -514,7 +514,7 @@ impl Simulation {
         // a batch of inserted particles joins at a rebuild (every rank knows of it)
         let need = std::mem::replace(&mut self.insert_pending, false);
         let (need, moved, err) = self.par.agree(need || self.par.rebalance_pending, moved, err);
-        let need = need || moved.stale(st.nl.skin, st.nl.wall_moved);
+        let need = need || moved.stale(st.nl.skin, st.nl.wall_moved, st.nl.grown);
         self.par.timers.check += t.elapsed().as_secs_f64();
         if let Some(e) = err {
             return Err(TalusError::Run(e));
@@ -785,18 +785,30 @@ impl Simulation {
         Ok(self.state.phase < self.case.phases.len())
     }
 
+    /// Have the next step build the neighbour list anew. Nothing physical
+    /// depends on when the list is built, so this changes speed only (tests
+    /// prove so against it).
+    pub fn rebuild_list(&mut self) {
+        self.state.nl.x_ref.clear();
+    }
+
     /// Set every owned particle's radius to `radius_of(id)` (for an ellipse its
     /// equivalent radius sqrt(a b), the aspect ratio kept), with mass and inertia
-    /// from their material's density; the lists are rebuilt at the next step.
+    /// from their material's density; the neighbour list is kept where it can be
+    /// (`NeighborList::radii_changed`), else rebuilt at the next step.
     /// (Used to compact a bed by growing the granules.)
     pub fn set_radii(&mut self, radius_of: impl Fn(u64) -> f64) {
         let p = &mut self.state.p;
+        let mut grown = 0.0f64;
         for i in 0..p.owned() {
             let ri = radius_of(p.id[i]);
             let rho = self.case.materials[p.material[i] as usize].density;
             let m = rho * 4.0 / 3.0 * std::f64::consts::PI * ri.powi(3);
             let s = (p.radius[i] / p.minor[i]).sqrt();
+            let before = p.radius[i];
             p.set_shape(i, ri * s, ri / s, m);
+            // (NaN: not larger, but caught as a radius below)
+            grown = grown.max(p.radius[i] - before);
         }
         // a clump's members (dumbbell discs) stay touching at its centre
         let c = &mut self.state.clumps;
@@ -805,7 +817,15 @@ impl Simulation {
         }
         c.refresh_mass(p);
         c.place(p);
-        self.state.nl.x_ref.clear();
+        let nl = &mut self.state.nl;
+        if p.len() == p.owned() && p.radius[..p.owned()].iter().all(|r| r.is_finite() && *r > 0.0) {
+            // no ghosts (one rank, no periodic images: a ghost would keep its
+            // old radius until a build): the list stays, reaching further
+            // until the next build (the drag beds' growth rebuilt it every step)
+            nl.radii_changed(p, &self.state.walls, grown);
+        } else {
+            nl.x_ref.clear();
+        }
     }
 
     /// The current phase's name, or "end" after the last.
