@@ -391,7 +391,7 @@ impl Simulation {
             }
         }
         if field == ParticleField::Position {
-            self.state.nl.x_ref.clear();
+            self.rebuild_list();
         }
         Ok(())
     }
@@ -824,7 +824,7 @@ impl Simulation {
             // until the next build (the drag beds' growth rebuilt it every step)
             nl.radii_changed(p, &self.state.walls, grown);
         } else {
-            nl.x_ref.clear();
+            self.rebuild_list();
         }
     }
 
@@ -936,10 +936,10 @@ fn list_inits(path: &str, list: &[ParticleEntry]) -> Result<Vec<ParticleInit>, T
 /// on H1-small's whole run on 2 threads: 5.99 -> 6.6 million particle-steps/s.
 /// A thread can belong to one such pool only, and for good (rayon keeps it),
 /// so each thread keeps the first it makes (thread-local) and every later
-/// simulation on that thread with the same thread count shares it: the
-/// second simulation of a test or of a Python session, or each bed of a drag
-/// study, gains as the first does (measured below, `Simulation::new`'s callers
-/// on other threads). A simulation that asks such a thread for another count,
+/// simulation on that thread with the same thread count shares it: a
+/// simulation made off the main thread (a test, the Python module), or the
+/// second one on a thread, gains as `talus run` does (measured in
+/// ARCHITECTURE.md, "Threads within a rank"). A simulation that asks such a thread for another count,
 /// or one made on a thread of some other pool, gets a pool of its own threads.
 fn thread_pool(case: &Case, par: &Parallel) -> Result<std::sync::Arc<rayon::ThreadPool>, TalusError> {
     use std::sync::Arc;
