@@ -86,7 +86,7 @@ pub fn compute_forces(
             sweep(law, self.s, self.p, self.walls, self.nl, self.table)
         }
     }
-    dispatch(s.contact.model, Sweep { s, p, walls, nl, table })
+    dispatch(&s.contact, Sweep { s, p, walls, nl, table })
 }
 
 /// The law's constants of every pair and wall candidate of the list
@@ -313,6 +313,7 @@ impl<L: ContactLaw> PairEval<'_, L> {
         }
         let base = start[r.first] as usize;
         let (mut evaluated, mut owned) = (0, 0);
+        let inertia = L::USES_INERTIA || s.opts.rolling.is_some();
         let Rows { first, hist, roll, touch, out, force, torque } = r;
         // the sums start from the weight and no torque, and take each pair
         // of the row in turn (one pass over the pairs of all these rows)
@@ -347,8 +348,9 @@ impl<L: ContactLaw> PairEval<'_, L> {
             };
             let pm = table.get(pr.material[a], pr.material[b]);
             // R*, m*: computed here, where the pair touches (a list of
-            // them would be read and written far more often)
-            let pi = PairInertia::particles(pr.radius[a], pr.radius[b], pr.mass[a], pr.mass[b]);
+            // them would be read and written far more often), where the
+            // law or the rolling resistance reads them
+            let pi = if inertia { PairInertia::particles(pr.radius[a], pr.radius[b], pr.mass[a], pr.mass[b]) } else { PairInertia::UNUSED };
             let m = Motion { v_i: pr.vel[a], w_i: pr.omega[a], v_j: pr.vel[b], w_j: pr.omega[b] };
             let mut no_roll = Vec3::zeros();
             let roll = if ROLL { &mut roll[j] } else { &mut no_roll };

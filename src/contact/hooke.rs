@@ -120,3 +120,34 @@ impl ContactLaw for Hooke {
         NormalCoeffs { f_elastic: h.kn * overlap, gamma_n: h.gamma_n, kt: h.kt, gamma_t: h.gamma_t }
     }
 }
+
+/// `hooke` with explicit `stiffness`: the same law as [`Hooke::Explicit`],
+/// with its one set of coefficients held by the law instead of copied to
+/// every pair. The sweep then reads no per-pair constants (32 bytes a pair
+/// and step) and computes no R*, m* per contact; the arithmetic, and so every
+/// result, is that of `Hooke::Explicit` to the bit.
+impl ContactLaw for HookeExplicit {
+    type Pair = ();
+
+    const USES_INERTIA: bool = false;
+
+    /// The keys `Hooke` takes; only its explicit form is this law.
+    fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError> {
+        match Hooke::from_case(c, o)? {
+            Hooke::Explicit(h) => Ok(h),
+            Hooke::Derived { characteristic_velocity } => Err(KeyError::new(
+                "contact.characteristic_velocity",
+                characteristic_velocity,
+                "the explicit hooke law takes contact.stiffness, not a characteristic velocity",
+            )),
+        }
+    }
+
+    #[inline(always)]
+    fn pair(&self, _pm: &PairMaterial, _pi: PairInertia) {}
+
+    #[inline(always)]
+    fn normal(&self, _pm: &PairMaterial, _pi: PairInertia, _pair: &(), overlap: f64) -> NormalCoeffs {
+        NormalCoeffs { f_elastic: self.kn * overlap, gamma_n: self.gamma_n, kt: self.kt, gamma_t: self.gamma_t }
+    }
+}

@@ -32,10 +32,14 @@ use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
 
 /// The one place a case's model name meets its law type: `user` is run with
-/// the law `model` names, monomorphised for it (static dispatch: the force
-/// sweep is compiled once per law). A new law adds its arm here.
-pub fn dispatch<U: LawUser>(model: ModelName, user: U) -> U::Out {
-    match model {
+/// the law the section's `model` names, monomorphised for it (static dispatch:
+/// the force sweep is compiled once per law). A new law adds its arm here.
+/// `hooke` with explicit `stiffness` is its own law type
+/// ([`hooke::HookeExplicit`]): one set of coefficients for every pair, held by
+/// the law, so the sweep reads no per-pair constants and computes no R*, m*.
+pub fn dispatch<U: LawUser>(c: &ContactSection, user: U) -> U::Out {
+    match c.model {
+        ModelName::Hooke if c.stiffness.is_some() => user.with::<hooke::HookeExplicit>(),
         ModelName::Hooke => user.with::<hooke::Hooke>(),
         ModelName::Hertz => user.with::<hertz::Hertz>(),
     }
@@ -57,7 +61,7 @@ pub fn check_law(c: &ContactSection) -> Result<(), KeyError> {
             L::from_case(self.0, &conventions::resolve(self.0)).map(|_| ())
         }
     }
-    dispatch(c.model, Check(c))
+    dispatch(c, Check(c))
 }
 
 /// A bad key of the case's `[contact]` section: which key, its value, and why
@@ -92,6 +96,9 @@ impl PairInertia {
         let m_eff = mi * mj / (mi + mj);
         PairInertia { r_eff: ri * rj / (ri + rj), m_eff, sqrt_m_eff: m_eff.sqrt() }
     }
+    /// What a law that reads neither R* nor m* is handed
+    /// ([`ContactLaw::USES_INERTIA`] false): NaN, so that a misuse shows.
+    pub const UNUSED: PairInertia = PairInertia { r_eff: f64::NAN, m_eff: f64::NAN, sqrt_m_eff: f64::NAN };
     #[inline(always)]
     pub fn wall(ri: f64, mi: f64) -> Self {
         PairInertia { r_eff: ri, m_eff: mi, sqrt_m_eff: mi.sqrt() }
@@ -130,6 +137,12 @@ pub trait ContactLaw: Copy + PartialEq + Send + Sync + 'static {
     /// after each list build, kept in `NeighborList`), and per contact only
     /// where the geometry sets R* (ellipses). `()` for a law without any.
     type Pair: Copy + Send + Sync + 'static;
+
+    /// Whether the law reads R* or m* (`pair`, `normal`). A law that does
+    /// not (`false`) lets the pair sweep skip computing them per contact
+    /// (two divisions and a square root), unless rolling resistance needs R*;
+    /// the [`PairInertia`] it is handed then holds NaN.
+    const USES_INERTIA: bool = true;
 
     /// The law as the case's `[contact]` section and the resolved conventions
     /// give it; a key it needs that is missing, a bad value, or a key of

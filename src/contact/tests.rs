@@ -287,6 +287,35 @@ proptest! {
     }
 
     #[test]
+    fn explicit_hooke_held_by_the_law_gives_the_per_pair_form_bit_for_bit_without_r_or_m(
+        d in 1e-7..2e-4f64, vx in -2.0..2.0f64, vy in -2.0..2.0f64, vz in -0.3..0.3f64, mu in 0.0..1.0f64,
+        clip in any::<bool>(), incremental in any::<bool>(), wall in any::<bool>()) {
+        // the law with its one set of coefficients (the sweep hands it NaN for
+        // R* and m*, which it must never read) against Hooke::Explicit with the
+        // pair's real R*, m*: every bit of the force, torques and history alike,
+        // sticking and sliding, over a run of steps
+        let h = HookeExplicit { kn: 200.0, kt: 170.0, gamma_n: 0.016, gamma_t: 0.012 };
+        let p = pm(0.5, mu);
+        let end = if clip { EndOfContact::Clip } else { EndOfContact::Tensile };
+        let tang = TangentialOptions { history: if incremental { TangentialHistory::Incremental } else { TangentialHistory::Total }, ..TANG };
+        let (g, pi) = if wall {
+            (along(Vec3::z(), d, 0.002 - d / 2.0, 0.0), PairInertia::wall(0.002, 1e-4))
+        } else {
+            (along(Vec3::z(), d, 0.002 - d / 2.0, 0.0025 - d / 2.0), PairInertia::particles(0.002, 0.0025, 1e-4, 1.5e-4))
+        };
+        let (mut h1, mut h2) = (Vec3::zeros(), Vec3::zeros());
+        for k in 0..50 {
+            let v = Vec3::new(vx * (k as f64 * 0.1).cos(), vy, vz);
+            let a = eval(h, end, tang, &p, PairInertia::UNUSED, &g, v, &mut h1, 1e-5);
+            let b = eval(Hooke::Explicit(h), end, tang, &p, pi, &g, v, &mut h2, 1e-5);
+            let bits = |c: &ContactForce| [c.force, c.torque_i, c.torque_j].map(|x| x.map(f64::to_bits));
+            prop_assert_eq!(bits(&a), bits(&b));
+            prop_assert_eq!(a.normal.to_bits(), b.normal.to_bits());
+            prop_assert_eq!(h1.map(f64::to_bits), h2.map(f64::to_bits));
+        }
+    }
+
+    #[test]
     fn incremental_elastic_shear_never_exceeds_cap(d in 1e-7..2e-4f64, vt in -2.0..2.0f64, vn in -0.3..0.3f64, mu in 0.0..1.0f64) {
         let p = pm(0.5, mu);
         let pi = PairInertia::wall(0.002, 1e-4);
@@ -340,4 +369,25 @@ fn epsd2_rolling_spring_winds_up_by_kt_r2_w_dt_caps_at_mu_r_f_r_and_ignores_twis
         law.contact(&o, &p, pw, &law.pair(&p, pw), &gw, &m, &mut Vec3::zeros(), &mut roll, dt);
         assert_relative_eq!(roll.x, 800.0 * r * r * 3.0 * factor * dt, max_relative = 1e-12);
     }
+}
+
+#[test]
+fn hooke_takes_exactly_one_of_stiffness_and_characteristic_velocity_whichever_law_type_runs_it() {
+    // explicit stiffness dispatches to the law that holds its coefficients,
+    // a characteristic velocity to the per-pair one; both, or a bad value,
+    // are refused with the same key and message either way
+    let mut c = crate::case::ContactSection::new(crate::case::ModelName::Hooke);
+    let h = HookeExplicit { kn: 200.0, kt: 200.0, gamma_n: 0.016, gamma_t: 0.016 };
+    c.stiffness = Some(h);
+    assert_eq!(check_law(&c), Ok(()));
+    c.characteristic_velocity = Some(0.5);
+    let e = check_law(&c).unwrap_err();
+    assert_eq!((e.key.as_str(), e.value.as_str()), ("contact.model", "\"hooke\""));
+    assert!(e.why.starts_with("give exactly one of contact.stiffness"), "{}", e.why);
+    c.stiffness = None;
+    assert_eq!(check_law(&c), Ok(()));
+    c.characteristic_velocity = None;
+    c.stiffness = Some(HookeExplicit { kn: -1.0, ..h });
+    let e = check_law(&c).unwrap_err();
+    assert_eq!((e.key.as_str(), e.value.as_str()), ("contact.stiffness.kn", "-1"));
 }
