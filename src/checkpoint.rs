@@ -23,7 +23,6 @@ use crate::durable::write_atomic;
 use crate::error::TalusError;
 use crate::integrate::GearState;
 use crate::neighbor::{History, NeighborList};
-use crate::particles::Particles;
 use crate::sim::{Simulation, State};
 use bincode::Options;
 use std::io::Write;
@@ -184,13 +183,14 @@ fn pause_for_tests(w: &mut impl Write) -> std::io::Result<()> {
 /// All ranks write one checkpoint together (a collective: gathered, rank 0 writes).
 pub fn write(sim: &Simulation, path: &Path) -> Result<(), TalusError> {
     let st = sim.state();
-    let (recs, rows) = sim.parallel().gather_all(&st.p, &st.gear);
     let history = sim.parallel().gather_history(st.nl.take_history(&st.p));
+    let (p, rows) = sim.parallel().gather_particles(&st.p, &st.gear);
     let result = if sim.parallel().comm.is_root() {
         let mut gear = GearState { initialised: st.gear.initialised, ..Default::default() };
         gear.set_all(&rows);
+        drop(rows);
         let state = State {
-            p: Particles::from_records(&recs),
+            p,
             walls: st.walls.clone(),
             nl: NeighborList { skin: st.nl.skin, builds: st.nl.builds, ..Default::default() },
             gear,

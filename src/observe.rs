@@ -193,9 +193,9 @@ impl SnapshotLog {
 
     /// Gather every particle and let rank 0 write a snapshot (a collective).
     pub fn write(&mut self, sim: &Simulation) -> Result<(), TalusError> {
-        let (recs, _) = sim.parallel().gather_all(sim.particles(), &sim.state().gear);
+        let (p, _) = sim.parallel().gather_particles(sim.particles(), &sim.state().gear);
         let r = match self.snaps.as_mut() {
-            Some(s) => s.write(sim.state(), &recs),
+            Some(s) => s.write(sim.state(), &p),
             None => Ok(()),
         };
         sim.parallel().collective(r)
@@ -229,13 +229,14 @@ impl Observer for FinalState {
     }
     fn finish(&mut self, sim: &mut Simulation, _summary: &mut Map<String, Value>) -> Result<(), TalusError> {
         use std::io::Write as _;
-        let (mut recs, _) = sim.parallel().gather_all(sim.particles(), &sim.state().gear);
+        // in order of id
+        let (p, _) = sim.parallel().gather_particles(sim.particles(), &sim.state().gear);
         let r = if sim.parallel().comm.is_root() {
-            recs.sort_unstable_by_key(|r| r.id);
             crate::durable::write_atomic(&self.path, |w| {
                 writeln!(w, "id,x,y,z,vx,vy,vz,radius")?;
-                for r in &recs {
-                    writeln!(w, "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e}", r.id, r.pos.x, r.pos.y, r.pos.z, r.vel.x, r.vel.y, r.vel.z, r.radius)?;
+                for i in 0..p.len() {
+                    let (x, v) = (p.pos[i], p.vel[i]);
+                    writeln!(w, "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e}", p.id[i], x.x, x.y, x.z, v.x, v.y, v.z, p.radius[i])?;
                 }
                 Ok(())
             })

@@ -8,7 +8,7 @@
 use crate::durable::{write_atomic, Series};
 use crate::dim::Vec3;
 use crate::error::TalusError;
-use crate::particles::Record;
+use crate::particles::Particles;
 use crate::sim::{Simulation, State};
 use crate::walls::Shape;
 use std::io::Write;
@@ -276,22 +276,18 @@ impl Snapshots {
     }
 
     /// Write every particle (gathered from all ranks, in id order) as one snapshot.
-    pub fn write(&mut self, st: &State, recs: &[Record]) -> Result<(), TalusError> {
+    pub fn write(&mut self, st: &State, p: &Particles) -> Result<(), TalusError> {
         let name = format!("step_{:09}", st.step);
         let err = |e: hdf5_metno::Error| TalusError::Run(format!("writing {}: {e}", self.h5.display()));
         let g = self.file.create_group(&name).map_err(err)?;
         g.new_attr::<f64>().create("time_s").map_err(err)?.write_scalar(&st.time).map_err(err)?;
-        let n = recs.len();
-        let vec3 = |f: &dyn Fn(&Record) -> crate::dim::Vec3| -> Vec<f64> {
-            recs.iter().flat_map(|r| { let x = f(r); [x.x, x.y, x.z] }).collect()
-        };
-        for (label, data) in [("position", vec3(&|r| r.pos)), ("velocity", vec3(&|r| r.vel)), ("spin", vec3(&|r| r.omega))] {
+        let n = p.len();
+        let flat = |v: &[crate::dim::Vec3]| -> Vec<f64> { v.iter().flat_map(|x| [x.x, x.y, x.z]).collect() };
+        for (label, data) in [("position", flat(&p.pos)), ("velocity", flat(&p.vel)), ("spin", flat(&p.omega))] {
             g.new_dataset::<f64>().shape((n, 3)).create(label).map_err(err)?.write_raw(&data).map_err(err)?;
         }
-        let radius: Vec<f64> = recs.iter().map(|r| r.radius).collect();
-        let id: Vec<u64> = recs.iter().map(|r| r.id).collect();
-        g.new_dataset::<f64>().shape(n).create("radius").map_err(err)?.write_raw(&radius).map_err(err)?;
-        g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&id).map_err(err)?;
+        g.new_dataset::<f64>().shape(n).create("radius").map_err(err)?.write_raw(&p.radius).map_err(err)?;
+        g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&p.id).map_err(err)?;
         let mut walls = Vec::new();
         let wg = g.create_group("walls").map_err(err)?;
         for w in st.walls.iter().filter(|w| w.active) {

@@ -164,6 +164,10 @@ impl Particles {
     /// Particles made of records (all owned).
     pub fn from_records(recs: &[Record]) -> Particles {
         let mut p = Particles::default();
+        macro_rules! reserve {
+            ($($f:ident),*) => { $( p.$f.reserve_exact(recs.len()); )* };
+        }
+        every_array!(reserve);
         for r in recs {
             p.push_record(r);
         }
@@ -252,6 +256,26 @@ impl Particles {
             )* };
         }
         every_array!(keep);
+    }
+
+    /// A copy of the particles at places `perm`, in that order (entry k is
+    /// entry perm[k] here), no ghosts: each array made at its size.
+    pub fn selected(&self, perm: &[usize]) -> Particles {
+        let mut q = Particles::default();
+        macro_rules! select {
+            ($($f:ident),*) => { $( q.$f = perm.iter().map(|&i| self.$f[i]).collect(); )* };
+        }
+        every_array!(select);
+        q
+    }
+
+    /// The particles of `other` (owned only, no periodic images) after these.
+    pub fn append(&mut self, mut other: Particles) {
+        debug_assert!(self.ghosts == 0 && other.ghosts == 0 && self.image.is_empty() && other.image.is_empty());
+        macro_rules! append {
+            ($($f:ident),*) => { $( self.$f.append(&mut other.$f); )* };
+        }
+        every_array!(append);
     }
 
     /// Reorder (or select) particles: entry k becomes old entry perm[k]. Ghosts are dropped.

@@ -841,8 +841,7 @@ impl Simulation {
     /// Hash of every particle's id, position, velocity and spin, sorted by id
     /// (FNV-1a, 64 bit), over all ranks (a collective).
     pub fn state_hash(&self) -> String {
-        let (recs, _) = self.par.gather_all(&self.state.p, &self.state.gear);
-        let p = Particles::from_records(&recs);
+        let (p, _) = self.par.gather_particles(&self.state.p, &self.state.gear);
         let order: Vec<usize> = (0..p.len()).collect();
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         let mut eat = |x: u64| {

@@ -114,6 +114,21 @@ impl Comm {
         }
     }
 
+    /// Every rank's value, on every rank, in rank order. Without other ranks
+    /// the value comes back as it is, moved: a gather of the whole state
+    /// (checkpoints, snapshots, the state hash) makes no second copy of it there.
+    pub fn all_gather_values<T: serde::Serialize + for<'a> serde::Deserialize<'a>>(&self, mine: T) -> Vec<T> {
+        match self {
+            Comm::Serial => vec![mine],
+            #[cfg(feature = "mpi")]
+            Comm::Mpi { .. } => {
+                let bytes = super::bin(&mine);
+                drop(mine);
+                self.all_gather_bytes(&bytes).into_iter().map(|b| super::unbin(&b)).collect()
+            }
+        }
+    }
+
     /// Every rank's bytes, on every rank, in rank order.
     pub fn all_gather_bytes(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         match self {

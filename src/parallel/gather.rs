@@ -22,32 +22,47 @@ impl Parallel {
         self.comm.all_gather_bytes(&bin(&mine)).iter().map(|b| unbin(b)).collect()
     }
 
-    /// Every rank's owned particle records (with Gear rows), sorted by id, on every rank.
-    pub fn gather_all(&self, p: &Particles, gear: &GearState) -> (Vec<Record>, Vec<Vec<Vec3>>) {
-        let mine: (Vec<Record>, Vec<Vec<Vec3>>) =
-            ((0..p.owned()).map(|i| p.record(i)).collect(), (0..p.owned()).map(|i| gear.get(i)).collect());
-        let mut recs = Vec::new();
-        let mut rows = Vec::new();
-        for b in self.comm.all_gather_bytes(&bin(&mine)) {
-            let (r, g): (Vec<Record>, Vec<Vec<Vec3>>) = unbin(&b);
-            recs.extend(r);
-            rows.extend(g);
+    /// Every rank's owned particles as one `Particles` in order of id (with
+    /// Gear rows, none where Gear has not started), on every rank: what a
+    /// checkpoint holds, a snapshot and `final.csv` write and the state hash
+    /// reads. Each rank puts its own in order of id straight into new arrays,
+    /// so one rank's come back as they are made: one copy of the particles;
+    /// several ranks' runs are appended and sorted (ids are unique).
+    pub fn gather_particles(&self, p: &Particles, gear: &GearState) -> (Particles, Vec<Vec<Vec3>>) {
+        let order = id_order(p);
+        let mine = (p.selected(&order), gear_rows(gear, &order));
+        let parts = self.comm.all_gather_values(mine);
+        let (mut all, mut rows) = parts
+            .into_iter()
+            .reduce(|(mut a, mut g), (b, g2)| {
+                a.append(b);
+                g.extend(g2);
+                (a, g)
+            })
+            .unwrap_or_default();
+        if !all.id.is_sorted() {
+            let mut order: Vec<usize> = (0..all.len()).collect();
+            order.sort_unstable_by_key(|&i| all.id[i]);
+            all.permute(&order);
+            if rows.len() == order.len() {
+                rows = order.iter().map(|&i| std::mem::take(&mut rows[i])).collect();
+            }
         }
-        let mut order: Vec<usize> = (0..recs.len()).collect();
-        order.sort_by_key(|&i| recs[i].id);
-        let recs2 = order.iter().map(|&i| recs[i]).collect();
-        let rows2 = if rows.len() == recs.len() { order.iter().map(|&i| rows[i].clone()).collect() } else { Vec::new() };
-        (recs2, rows2)
+        (all, rows)
     }
 
     /// The whole history, on every rank (pairs evaluated on two ranks appear once).
     pub fn gather_history(&self, h: History) -> History {
-        let mut all = History::default();
-        for b in self.comm.all_gather_bytes(&bin(&h)) {
-            let x: History = unbin(&b);
-            all.pairs.extend(x.pairs);
-            all.walls.extend(x.walls);
-        }
+        let mut all = self
+            .comm
+            .all_gather_values(h)
+            .into_iter()
+            .reduce(|mut a, b| {
+                a.pairs.extend(b.pairs);
+                a.walls.extend(b.walls);
+                a
+            })
+            .unwrap_or_default();
         all.normalise();
         all
     }
@@ -60,4 +75,16 @@ impl Parallel {
         let all: Vec<Record> = self.comm.all_gather_bytes(&bin(&mine)).iter().flat_map(|b| unbin::<Vec<Record>>(b)).collect();
         ids.iter().map(|id| all.iter().find(|r| r.id == *id).copied()).collect()
     }
+}
+
+/// The places of the owned particles in order of their ids.
+fn id_order(p: &Particles) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..p.owned()).collect();
+    order.sort_unstable_by_key(|&i| p.id[i]);
+    order
+}
+
+/// The Gear rows of the particles at `order` (none where Gear has not started).
+fn gear_rows(gear: &GearState, order: &[usize]) -> Vec<Vec<Vec3>> {
+    if gear.initialised { order.iter().map(|&i| gear.get(i)).collect() } else { Vec::new() }
 }
