@@ -161,19 +161,6 @@ impl Particles {
         self.angle.push(r.angle);
     }
 
-    /// Particles made of records (all owned).
-    pub fn from_records(recs: &[Record]) -> Particles {
-        let mut p = Particles::default();
-        macro_rules! reserve {
-            ($($f:ident),*) => { $( p.$f.reserve_exact(recs.len()); )* };
-        }
-        every_array!(reserve);
-        for r in recs {
-            p.push_record(r);
-        }
-        p
-    }
-
     /// Drop the ghosts.
     pub fn drop_ghosts(&mut self) {
         let n = self.owned();

@@ -841,8 +841,8 @@ impl Simulation {
     /// Hash of every particle's id, position, velocity and spin, sorted by id
     /// (FNV-1a, 64 bit), over all ranks (a collective).
     pub fn state_hash(&self) -> String {
+        // in order of id
         let (p, _) = self.par.gather_particles(&self.state.p, &self.state.gear);
-        let order: Vec<usize> = (0..p.len()).collect();
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         let mut eat = |x: u64| {
             for b in x.to_le_bytes() {
@@ -850,7 +850,7 @@ impl Simulation {
                 h = h.wrapping_mul(0x0000_0100_0000_01b3);
             }
         };
-        for i in order {
+        for i in 0..p.len() {
             eat(p.id[i]);
             for v in [p.pos[i], p.vel[i], p.omega[i]] {
                 for k in 0..3 {

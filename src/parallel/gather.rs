@@ -1,7 +1,7 @@
 //! Gathers for output: counters, whole states (snapshots, checkpoints, the
 //! state hash), history, tracked particles. Every rank gets the result.
 
-use super::{bin, unbin, Parallel, RankCounters};
+use super::{Parallel, RankCounters};
 use crate::dim::Vec3;
 use crate::integrate::GearState;
 use crate::neighbor::History;
@@ -19,7 +19,7 @@ impl Parallel {
         };
         self.timers.compute_s = 0.0;
         self.timers.comm_s = 0.0;
-        self.comm.all_gather_bytes(&bin(&mine)).iter().map(|b| unbin(b)).collect()
+        self.comm.all_gather_values(mine)
     }
 
     /// Every rank's owned particles as one `Particles` in order of id (with
@@ -72,7 +72,7 @@ impl Parallel {
         // storage is in spatial order, not id order: a scan (few ids are asked for)
         let own = &p.id[..p.owned()];
         let mine: Vec<Record> = ids.iter().filter_map(|id| own.iter().position(|x| x == id).map(|i| p.record(i))).collect();
-        let all: Vec<Record> = self.comm.all_gather_bytes(&bin(&mine)).iter().flat_map(|b| unbin::<Vec<Record>>(b)).collect();
+        let all: Vec<Record> = super::all_gather(&self.comm, &mine);
         ids.iter().map(|id| all.iter().find(|r| r.id == *id).copied()).collect()
     }
 }
