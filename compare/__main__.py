@@ -3,6 +3,8 @@
 SETUP: SC-wall, SC-pair, SC-oblique, H1-small, H1-paper [--resume], or `throughput TARGET` with
 TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense settled
 bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
+`throughput TARGET --repeat N`: N rounds, the runs' order alternating, each ratio's median
+over the rounds (compare/rounds.py).
 `python -m compare CASE.toml [--engines talus,liggghts]`: any case, exported to the
 reference and compared column by column (compare/case.py);
 `python -m compare regress CASE.toml --golden FILE`: talus against its golden file
@@ -100,6 +102,30 @@ def print_sc(results):
             print("  LIGGGHTS and YADE differ (by convention) on: " + ", ".join(row["references_disagree"]))
 
 
+def _throughput(a, bed, engs, out):
+    """`throughput TARGET [--repeat N]`: one round, or N alternating rounds and their medians."""
+    from . import h1, rounds
+    target = a.target or "H1-small"
+    each, first = [], None
+    for k in range(a.repeat):
+        if bed:
+            r = bed_throughput(target, engs, out.resolve(), a.steps, k=k)
+            print_bed(r)
+        else:
+            r, first = h1.throughput(target, engs, out, a.steps, k=k, first=first)
+            print(json.dumps(r, indent=1))
+        if a.repeat > 1:
+            print(f"(round {k + 1} of {a.repeat}, order: {', '.join(r['order'])})")
+            (out / f"throughput-round-{k + 1}.json").write_text(json.dumps(r, indent=1))
+        each.append(r)
+    if a.repeat > 1:
+        r = {"setup": target, **rounds.summarise(each)}
+        rounds.print_summary(r)
+    (out / "throughput.json").write_text(json.dumps(r, indent=1))
+    print(f"\nwritten: {out / 'throughput.json'}")
+    return 0
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["window"]:  # H1-paper discharge window, its own options: compare/window.py
@@ -120,6 +146,10 @@ def main(argv=None):
     ap.add_argument("--engines", help="default: talus,liggghts,yade; for the beds talus,lammps,liggghts")
     ap.add_argument("--out", type=Path)
     ap.add_argument("--steps", type=int, help="throughput: run only this many steps (H1: of the fill; beds: of the window) in every engine")
+    ap.add_argument("--repeat", type=int, default=1, metavar="N",
+                    help="throughput: N rounds, each running every engine once, the order of the runs alternating "
+                         "(forward, backward, ...); reports each ratio's median over the rounds and its range "
+                         "(compare/rounds.py)")
     ap.add_argument("--resume", action="store_true",
                     help="H1-small, H1-paper: reuse the finished talus and LIGGGHTS runs in DIR, and run YADE resumably "
                          "(a checkpoint every 10 min of wall time): an unfinished YADE run in DIR/yade continues from "
@@ -127,6 +157,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.resume and a.setup not in H1_SETUPS:
         ap.error("--resume is for H1-small and H1-paper")
+    if a.repeat < 1 or (a.repeat > 1 and a.setup != "throughput"):
+        ap.error(f"--repeat {a.repeat}: a number of rounds of at least 1, and only with `throughput`")
     bed = a.setup == "throughput" and a.target in BEDS
     known = ("talus", "lammps", "liggghts") if bed else ("talus", "liggghts", "yade")
     engs = [e.strip() for e in (a.engines or ",".join(known)).split(",") if e.strip()]
@@ -158,18 +190,8 @@ def main(argv=None):
         return 0
     from . import h1
     try:
-        if bed:
-            r = bed_throughput(a.target, engs, out.resolve(), a.steps)
-            (out / "throughput.json").write_text(json.dumps(r, indent=1))
-            print_bed(r)
-            print(f"\nwritten: {out / 'throughput.json'}")
-            return 0
         if a.setup == "throughput":
-            target = a.target or "H1-small"
-            r = h1.throughput(target, engs, out, a.steps)
-            print(json.dumps(r, indent=1))
-            (out / "throughput.json").write_text(json.dumps(r, indent=1))
-            return 0
+            return _throughput(a, bed, engs, out)
         result, series_out = h1.compare_h1(a.setup, engs, out, resume=a.resume)
     except (engines.EngineError, ValueError) as err:
         print(f"compare: {err}", file=sys.stderr)

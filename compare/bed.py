@@ -202,10 +202,12 @@ def _liggghts_window(nums, data, steps, work):
     return secs, n, *_from_log(log), m
 
 
-def throughput(bed, engs, out, max_steps=None):
+def throughput(bed, engs, out, max_steps=None, k=0):
     """Particle-steps per second on the settled bed: talus (1 and 2 threads), LAMMPS
     (gran/hooke/history on 1 process and 2 ranks; pair_style granular, the exact law, on
-    1 process), LIGGGHTS (1 process); the same bed, steps, time step and skin in each."""
+    1 process), LIGGGHTS (1 process); the same bed, steps, time step and skin in each.
+    `k`: the round (compare/rounds.py: odd rounds run them in the reverse order)."""
+    from . import rounds
     nums = numbers(bed)
     steps = max_steps or BEDS[bed]
     csv_path, data, meta = make_bed(bed, nums)
@@ -213,28 +215,39 @@ def throughput(bed, engs, out, max_steps=None):
     work = out
     work.mkdir(parents=True, exist_ok=True)
     load = [os.getloadavg()[0]]
-    rate, res, mem = {}, {}, {}
-    pairs = {}
-    if "talus" in engs:
-        for threads in (1, 2):
-            summ, contacts0, m = _talus_window(bed, csv_path, steps, threads, work)
-            key = f"talus_{threads}_thread" + ("s" if threads > 1 else "")
-            rate[key] = summ["particle_steps_per_s"]
-            res[key] = {**m, "loop_s": summ["wall_clock_s"], "neighbor_builds": summ["neighbor_builds"]}
-            mem[key] = m["peak_rss_bytes"] / n
-            talus_contacts = contacts0
-    if "lammps" in engs:
-        for style, ranks in (("hooke_history", 1), ("hooke_history", 2), ("granular", 1)):
+    contacts = {}
+
+    def talus(threads):
+        def run():
+            summ, contacts["talus"], m = _talus_window(bed, csv_path, steps, threads, work)
+            return summ["particle_steps_per_s"], {**m, "loop_s": summ["wall_clock_s"],
+                                                  "neighbor_builds": summ["neighbor_builds"]}, None
+        return run
+
+    def lammps(style, ranks):
+        def run():
             secs, k, p, nb, m = _lammps_window(nums, meta, data, steps, ranks, style, work)
-            key = "lammps" + ("_granular" if style == "granular" else "") + (f"_{ranks}_ranks" if ranks > 1 else "_1_process")
-            rate[key] = n * k / secs
-            res[key] = {**m, "loop_s": secs, "neighbor_builds": nb}
-            pairs[key] = p
-    if "liggghts" in engs:
+            return n * k / secs, {**m, "loop_s": secs, "neighbor_builds": nb}, p
+        return run
+
+    def liggghts():
         secs, k, p, nb, m = _liggghts_window(nums, data, steps, work)
-        rate["liggghts_1_process"] = n * k / secs
-        res["liggghts_1_process"] = {**m, "loop_s": secs, "neighbor_builds": nb}
-        pairs["liggghts_1_process"] = p
+        return n * k / secs, {**m, "loop_s": secs, "neighbor_builds": nb}, p
+
+    jobs = []
+    if "talus" in engs:
+        jobs += [("talus_1_thread", talus(1)), ("talus_2_threads", talus(2))]
+    if "lammps" in engs:
+        jobs += [("lammps_1_process", lammps("hooke_history", 1)), ("lammps_2_ranks", lammps("hooke_history", 2)),
+                 ("lammps_granular_1_process", lammps("granular", 1))]
+    if "liggghts" in engs:
+        jobs += [("liggghts_1_process", liggghts)]
+    done, ran = rounds.run_jobs(jobs, k)
+    rate = {key: v[0] for key, v in done.items()}
+    res = {key: v[1] for key, v in done.items()}
+    mem = {key: v[1]["peak_rss_bytes"] / n for key, v in done.items() if key.startswith("talus")}
+    pairs = {key: v[2] for key, v in done.items() if not key.startswith("talus")}
+    talus_contacts = contacts.get("talus")
     load.append(os.getloadavg()[0])
     ratios = {}
     for a, b in (("talus_1_thread", "lammps_1_process"), ("talus_2_threads", "lammps_2_ranks"),
@@ -268,7 +281,7 @@ def throughput(bed, engs, out, max_steps=None):
             "note": "particle_steps_per_s from each engine's own timer of the stepping (talus summary.json "
                     "wall_clock_s, the Loop time of LAMMPS and LIGGGHTS); talus's neighbor_builds count its "
                     "2 builds at set-up, LAMMPS's and LIGGGHTS's those of the timed run only",
-            "peak_rss_bytes_per_particle": mem, "runs": res, "load_average_1min_before_after": load}
+            "peak_rss_bytes_per_particle": mem, "runs": res, "load_average_1min_before_after": load, "order": ran}
 
 
 def print_table(r):

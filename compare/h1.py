@@ -149,33 +149,56 @@ def plot_h1(out, setup, result, series_out):
     (out / "figures.json").write_text(json.dumps(result, indent=1))
 
 
-def throughput(setup, engs, out, max_steps=None):
+def throughput(setup, engs, out, max_steps=None, k=0, first=None):
     """Particle-steps per second of each engine on the same case, N, time step and steps.
-    With `max_steps`, every engine runs only the first steps of the fill."""
+    With `max_steps`, every engine runs only the first steps of the fill. `k`: the round
+    (compare/rounds.py: odd rounds run the engines in the reverse order); `first`: talus's
+    one-thread summary of an earlier round, which gives LIGGGHTS and YADE the fill's end
+    when they run before talus (talus is deterministic: every round's fill ends alike).
+    Returns the figures and that summary."""
+    from . import rounds
     nums = _case_numbers(setup)
-    res = {}
-    # one process on one core each (talus: one thread), as the reference codes run
-    probes, summ = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, threads=1)
-    n, steps = summ["particles"], summ["steps"]
-    res["talus"] = summ["particle_steps_per_s"]
-    if max_steps:
-        fill, discharge = steps * summ["timestep_s"], 0.0
-    else:
-        fill, discharge = summ["fill_end_time_s"], nums["discharge"]
-    if "liggghts" in engs:
-        _, _, log = engines.run_liggghts_h1(setup, out / "liggghts", fill, discharge, summ["timestep_s"], nums["skin"])
+    known = {"summary": first}
+
+    def talus_1():
+        # one process on one core each (talus: one thread), as the reference codes run
+        _, summ = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, threads=1)
+        known["summary"] = summ
+        return summ["particle_steps_per_s"]
+
+    def phases():
+        summ = known["summary"]
+        if summ is None:
+            raise ValueError("throughput: LIGGGHTS or YADE before talus, without talus's summary of an earlier round")
+        n, steps = summ["particles"], summ["steps"]
+        if max_steps:
+            return n, steps, summ["timestep_s"], steps * summ["timestep_s"], 0.0
+        return n, steps, summ["timestep_s"], summ["fill_end_time_s"], nums["discharge"]
+
+    def liggghts():
+        n, _, dt, fill, discharge = phases()
+        _, _, log = engines.run_liggghts_h1(setup, out / "liggghts", fill, discharge, dt, nums["skin"])
         secs, lsteps = engines.liggghts_loop_seconds(log)
-        res["liggghts"] = n * lsteps / secs
-    if "yade" in engs:
+        return n * lsteps / secs
+
+    def yade():
         # whole-process wall time (includes YADE's start-up and the per-interval probes)
-        _, _, secs = engines.run_yade_h1(setup, out / "yade", fill, discharge, summ["timestep_s"], nums["skin"])
-        res["yade"] = n * steps / secs
-    # talus on 2 MPI ranks (this machine has 2 cores): same case, steps and cloud
-    _, summ2 = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, ranks=2)
-    res["talus_2_ranks"] = summ2["particle_steps_per_s"]
-    _, summ3 = engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, threads=2)
-    res["talus_2_threads"] = summ3["particle_steps_per_s"]
+        n, steps, dt, fill, discharge = phases()
+        _, _, secs = engines.run_yade_h1(setup, out / "yade", fill, discharge, dt, nums["skin"])
+        return n * steps / secs
+
+    def talus_on(ranks=1, threads=None):
+        # talus on 2 MPI ranks or 2 threads (this machine has 2 cores): same case, steps and cloud
+        return lambda: engines.run_talus_h1(setup, "liggghts", out / "talus", max_steps, ranks=ranks,
+                                            threads=threads)[1]["particle_steps_per_s"]
+
+    jobs = [("talus", talus_1)]
+    jobs += [(e, f) for e, f in (("liggghts", liggghts), ("yade", yade)) if e in engs]
+    jobs += [("talus_2_ranks", talus_on(ranks=2)), ("talus_2_threads", talus_on(threads=2))]
+    res, ran = rounds.run_jobs(jobs, k)
+    n, steps = known["summary"]["particles"], known["summary"]["steps"]
     ratios = {k: res["talus"] / v for k, v in res.items() if k not in ("talus", "talus_2_ranks", "talus_2_threads")}
     ratios["talus_2_threads/talus"] = res["talus_2_threads"] / res["talus"]
     ratios.update({f"talus_2_ranks/{k}": res["talus_2_ranks"] / v for k, v in res.items() if k != "talus_2_ranks"})
-    return {"setup": setup, "particles": n, "steps": steps, "particle_steps_per_s": res, "talus_over": ratios}
+    return {"setup": setup, "particles": n, "steps": steps, "particle_steps_per_s": res, "talus_over": ratios,
+            "order": ran}, known["summary"]
