@@ -1,4 +1,4 @@
-"""python -m compare window [--steps N] [--checkpoint CK] [--out DIR]
+"""python -m compare window [--steps N] [--checkpoint CK] [--out DIR] [--repeat N]
 
 H1-paper discharge throughput over a window of N steps (default 8,000) from the
 end-of-fill checkpoint, in one invocation on one machine:
@@ -190,30 +190,45 @@ def _talus_mass_series(out, summ):
     return _mass_series(out / "probes.csv", t0)
 
 
-def window(case, out, steps, fill_steps, checkpoint=None, liggghts=True, reuse=False):
+def window(case, out, steps, fill_steps, checkpoint=None, liggghts=True, reuse=False, k=0):
+    """One round of the window's runs (compare/rounds.py: round k runs them backward if k is odd)."""
+    from . import rounds
     ck = Path(checkpoint).resolve() if checkpoint else make_checkpoint(case, out / "fill")
     res = {"case": str(case.relative_to(ROOT)) if case.is_relative_to(ROOT) else str(case),
            "checkpoint": str(ck), "talus": str(TALUS), "window_steps": steps, "fill_steps": fill_steps,
            "cores": os.cpu_count(), "runs": {}}
-    runs = res["runs"]
-    s, t = _talus(case, out / "fill-first", fill_steps, threads=1, reuse=reuse)
-    runs["talus_fill_1_thread"] = _row(s, t)
-    dt = s["timestep_s"]
     # the neighbour builds the checkpoint has counted (summary.json counts from the run's start)
     s0, _ = _talus(case, out / "window-start", 0, threads=1, restart=ck, reuse=reuse)
-    builds0 = s0["neighbor_builds"]
-    s1, t = _talus(case, out / "window-t1", steps, threads=1, restart=ck, reuse=reuse)
-    runs["talus_window_1_thread"] = _row(s1, t, builds0)
-    series = {"talus_window_1_thread": _talus_mass_series(out / "window-t1", s1)}
+    builds0, dt = s0["neighbor_builds"], s0["timestep_s"]
+    series, one_thread = {}, {}
+
+    def fill():
+        s, t = _talus(case, out / "fill-first", fill_steps, threads=1, reuse=reuse)
+        return _row(s, t)
+
+    def talus_window(tag, threads, ranks=1):
+        def run():
+            s, t = _talus(case, out / tag, steps, threads=threads, ranks=ranks, restart=ck, reuse=reuse)
+            if threads == 1 and ranks == 1:
+                series["talus_window_1_thread"] = _talus_mass_series(out / tag, s)
+                one_thread["summary"] = s
+            return _row(s, t, builds0)
+        return run
+
+    def liggghts_window():
+        row, series["liggghts_window_1_process"] = _liggghts(case, ck, out / "liggghts", steps, dt, reuse)
+        return row
+
+    jobs = [("talus_fill_1_thread", fill), ("talus_window_1_thread", talus_window("window-t1", 1)),
+            ("talus_window_2_threads", talus_window("window-t2", 2)),
+            ("talus_window_2_ranks", talus_window("window-p2", 1, ranks=2))]
+    if liggghts:
+        jobs.append(("liggghts_window_1_process", liggghts_window))
+    runs, res["order"] = rounds.run_jobs(jobs, k)
+    res["runs"] = runs
+    s1 = one_thread["summary"]
     res["stage_seconds_window_1_thread"] = s1["stage_seconds"]
     res["window_start_step"] = s1["steps"] - s1["steps_this_run"]
-    s, t = _talus(case, out / "window-t2", steps, threads=2, restart=ck, reuse=reuse)
-    runs["talus_window_2_threads"] = _row(s, t, builds0)
-    s, t = _talus(case, out / "window-p2", steps, threads=1, ranks=2, restart=ck, reuse=reuse)
-    runs["talus_window_2_ranks"] = _row(s, t, builds0)
-    if liggghts:
-        runs["liggghts_window_1_process"], series["liggghts_window_1_process"] = _liggghts(
-            case, ck, out / "liggghts", steps, dt, reuse)
     # the same physics on the same window: mass below the gate plane at a time both have
     series = {k: v for k, v in series.items() if len(v) > 1}
     if series:
@@ -228,10 +243,14 @@ def window(case, out, steps, fill_steps, checkpoint=None, liggghts=True, reuse=F
         ratios["talus_over_liggghts"] = one / ps["liggghts_window_1_process"]
     res["particle_steps_per_s"] = ps
     res["ratios"] = ratios
-    res["targets"] = {k: {"at_least": v, "met": ratios[k] >= v} for k, v in TARGETS.items() if k in ratios}
+    res["targets"] = targets(ratios)
     hashes = {runs[k]["state_hash"] for k in ("talus_window_1_thread", "talus_window_2_threads", "talus_window_2_ranks")}
     res["talus_windows_same_state"] = len(hashes) == 1
     return res
+
+
+def targets(ratios):
+    return {k: {"at_least": v, "met": ratios[k] >= v} for k, v in TARGETS.items() if k in ratios}
 
 
 def print_table(r):
@@ -277,7 +296,14 @@ def main(argv=None):
     ap.add_argument("--engines", default="talus,liggghts", help="talus,liggghts (talus is always run)")
     ap.add_argument("--out", type=Path, help="default out/compare/window-CASE")
     ap.add_argument("--reuse", action="store_true", help="keep runs already finished in OUT (their figures are reused)")
+    ap.add_argument("--repeat", type=int, default=1, metavar="N",
+                    help="N rounds of the runs, their order alternating (forward, backward, ...); each ratio's median "
+                         "over the rounds (compare/rounds.py)")
     a = ap.parse_args(argv)
+    if a.repeat < 1:
+        ap.error(f"--repeat {a.repeat}: a number of rounds of at least 1")
+    if a.repeat > 1 and a.reuse:
+        ap.error("--repeat with --reuse: every round would reuse the same runs")
     engs = {e.strip() for e in a.engines.split(",") if e.strip()}
     if engs - {"talus", "liggghts"}:
         ap.error(f"--engines: unknown {sorted(engs - {'talus', 'liggghts'})} (talus, liggghts)")
@@ -294,11 +320,29 @@ def main(argv=None):
             engines.check_versions(["liggghts"])
         out = (a.out or Path("out") / "compare" / f"window-{a.case}").resolve()
         out.mkdir(parents=True, exist_ok=True)
-        r = window(case, out, a.steps, a.fill_steps, a.checkpoint, "liggghts" in engs, a.reuse)
+        each = []
+        for k in range(a.repeat):
+            r = window(case, out, a.steps, a.fill_steps, a.checkpoint, "liggghts" in engs, a.reuse, k=k)
+            print_table(r)
+            if a.repeat > 1:
+                print(f"(round {k + 1} of {a.repeat}, order: {', '.join(r['order'])})")
+                (out / f"window-round-{k + 1}.json").write_text(json.dumps(r, indent=1))
+                # the end-of-fill checkpoint made in round 1 serves the others
+                a.checkpoint = a.checkpoint or Path(r["checkpoint"])
+            each.append(r)
     except (engines.EngineError, ValueError, KeyError) as err:
         print(f"compare: {err}", file=sys.stderr)
         return 2
+    if a.repeat > 1:
+        from . import rounds
+        r = {"case": each[0]["case"], "window_steps": a.steps, "fill_steps": a.fill_steps,
+             **rounds.summarise([{"particle_steps_per_s": x["particle_steps_per_s"], "talus_over": x["ratios"],
+                                  "order": x["order"]} for x in each])}
+        r["targets"] = targets(r["talus_over_median"])
+        rounds.print_summary(r)
+        for k, t in r["targets"].items():
+            print(f"  {k:<24} median {r['talus_over_median'][k]:.3f}  (issue: >= {t['at_least']}: "
+                  f"{'met' if t['met'] else 'NOT met'})")
     (out / "window.json").write_text(json.dumps(r, indent=1))
-    print_table(r)
     print(f"\nwritten: {out / 'window.json'}")
     return 0

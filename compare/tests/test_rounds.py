@@ -93,3 +93,30 @@ def test_repeat_is_refused_outside_throughput_or_below_one(argv, capsys):
         cli.main(argv)
     assert e.value.code == 2
     assert "--repeat" in capsys.readouterr().err
+
+
+def test_the_window_in_two_rounds_on_h1_small(tmp_path):
+    """`compare window --repeat 2` on H1-small (its own end-of-fill checkpoint, made once):
+    the second round runs backward, every talus window ends in the same state, and the
+    figures are the medians of the rounds' ratios."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run([sys.executable, "-m", "compare", "window", "--case", "H1-small", "--steps", "100",
+                        "--fill-steps", "100", "--engines", "talus", "--repeat", "2", "--out", tmp_path],
+                       cwd=root, capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    rounds_ = [json.loads((tmp_path / f"window-round-{k}.json").read_text()) for k in (1, 2)]
+    assert rounds_[1]["order"] == list(reversed(rounds_[0]["order"]))
+    assert all(x["talus_windows_same_state"] for x in rounds_)
+    assert rounds_[0]["runs"]["talus_window_1_thread"]["state_hash"] == rounds_[1]["runs"]["talus_window_1_thread"]["state_hash"]
+    s = json.loads((tmp_path / "window.json").read_text())
+    assert s["rounds"] == 2
+    for k, v in s["talus_over_median"].items():
+        each = [x["ratios"][k] for x in rounds_]
+        assert v == pytest.approx(sum(each) / 2, rel=1e-12)
+        assert s["talus_over_range"][k] == [min(each), max(each)]
+        assert s["targets"][k]["met"] == (v >= s["targets"][k]["at_least"])
