@@ -59,4 +59,10 @@ def print_summary(s):
     for k, v in s["talus_over_median"].items():
         lo, hi = s["talus_over_range"][k]
         each = " ".join(f"{r['talus_over'][k]:.2f}" for r in s["each_round"])
-        print(f"  {k:<50}{v:>8.2f}{lo:>8.2f}{hi:>8.2f}   {each}")
+        print(f"  {label(k):<50}{v:>8.2f}{lo:>8.2f}{hi:>8.2f}   {each}")
+
+
+def label(k):
+    """A ratio's name as printed: a bare engine name (H1's `talus_over` keys talus's
+    one-process run over that engine) is written `talus/ENGINE`."""
+    return k if "/" in k else f"talus/{k}"

@@ -120,3 +120,12 @@ def test_the_window_in_two_rounds_on_h1_small(tmp_path):
         assert v == pytest.approx(sum(each) / 2, rel=1e-12)
         assert s["talus_over_range"][k] == [min(each), max(each)]
         assert s["targets"][k]["met"] == (v >= s["targets"][k]["at_least"])
+
+
+def test_the_summary_names_a_bare_engine_ratio_talus_over_it(capsys):
+    each = [{"particle_steps_per_s": {"talus": 4.0, "liggghts": 2.0, "talus_2_threads": 6.0},
+             "talus_over": {"liggghts": 2.0, "talus_2_threads/talus": 1.5}, "order": []}]
+    rounds.print_summary({"setup": "x", **rounds.summarise(each)})
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.split()[:2] == ["talus/liggghts", "2.00"] for line in lines)
+    assert any(line.split()[:2] == ["talus_2_threads/talus", "1.50"] for line in lines)
