@@ -261,11 +261,16 @@ proptest! {
         let v = Vec3::new(vx, vy, vz);
         let g = along(n, d, 0.002, 0.0);
         let gr = along(rot * n, d, 0.002, 0.0);
+        // the rounding is relative to the force's terms, not to their sum: the
+        // elastic and viscous normal forces nearly cancel at the end of a contact
+        // (a tensile normal force a millionth of either), so the scale is the
+        // elastic force at this overlap (the force at rest) where it is larger
+        let elastic = eval_any(sel, &p, pi, &g, Vec3::zeros(), &mut Vec3::zeros()).force.norm();
         let (mut h1, mut h2) = (Vec3::zeros(), Vec3::zeros());
         for _ in 0..3 {
             let f1 = eval_any(sel, &p, pi, &g, v, &mut h1);
             let f2 = eval_any(sel, &p, pi, &gr, rot * v, &mut h2);
-            prop_assert!((rot * f1.force - f2.force).norm() <= 1e-10 * f1.force.norm().max(1e-30));
+            prop_assert!((rot * f1.force - f2.force).norm() <= 1e-10 * f1.force.norm().max(elastic).max(1e-30));
         }
     }
 
