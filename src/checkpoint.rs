@@ -223,7 +223,8 @@ pub fn load(path: &Path) -> Result<Checkpoint, TalusError> {
 /// Replace the simulation's state by a checkpoint's (every rank reads the file
 /// and keeps its own particles); refuse one written for another case.
 pub fn read(sim: &mut Simulation, path: &Path) -> Result<(), TalusError> {
-    let ck = load(path)?;
+    // every rank reads the file: one that cannot stops them all
+    let ck = sim.parallel().collective(load(path))?;
     if ck.case_hash != case_hash(sim) {
         return Err(TalusError::Input(format!(
             "{}: the checkpoint was written for a different case than {}",

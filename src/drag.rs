@@ -341,6 +341,7 @@ struct Bed {
 }
 
 /// One bed's drag series: (displacement m, drag N) every step.
+#[derive(Serialize, Deserialize)]
 pub struct BedResult {
     pub seed: u64,
     pub series: Vec<(f64, f64)>,
@@ -607,11 +608,87 @@ pub fn run_with(dc: &DragCase, out: &Path, between: impl FnMut() -> Result<(), T
     std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))?;
     let start = std::time::Instant::now();
     let beds = run_beds(dc, between)?;
-    let wall = start.elapsed().as_secs_f64();
+    write_study(dc, out, &beds, start.elapsed().as_secs_f64(), true)
+}
+
+/// `run` on the ranks of an MPI job (`mpirun -n P talus drag`): the beds are
+/// dealt to the ranks in turn (bed k to rank k mod P), each rank runs its own
+/// side by side on its share of the cores, and rank 0 writes the study. Each
+/// bed's result does not depend on where it ran, so the outputs are those of
+/// a run without mpirun. Every rank returns the summary; an error on any rank
+/// is an error on every rank.
+pub fn run_on(dc: &DragCase, out: &Path, comm: &crate::parallel::comm::Comm) -> Result<Map<String, Value>, TalusError> {
+    let (rank, size) = (comm.rank(), comm.size());
+    if size == 1 {
+        return run(dc, out);
+    }
+    let start = std::time::Instant::now();
+    let made = if rank == 0 {
+        std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e))
+    } else {
+        Ok(())
+    };
+    let mine: Vec<usize> = (0..dc.drag.seeds.len()).filter(|k| k % size == rank).collect();
+    let mut share = dc.clone();
+    share.drag.seeds = mine.iter().map(|&k| dc.drag.seeds[k]).collect();
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    share.threads = Some(dc.threads.unwrap_or((cores / size).max(1)));
+    let result: Result<Vec<BedResult>, String> = match made {
+        Err(e) => Err(e.to_string()),
+        Ok(()) if share.drag.seeds.is_empty() => Ok(Vec::new()),
+        Ok(()) => run_beds(&share, || Ok(())).map_err(|e| e.to_string()),
+    };
+    let mut slots: Vec<Option<BedResult>> = dc.drag.seeds.iter().map(|_| None).collect();
+    let mut errors = Vec::new();
+    for (r, got) in comm.all_gather_values(result).into_iter().enumerate() {
+        match got {
+            Ok(beds) => {
+                let ks = (0..dc.drag.seeds.len()).filter(|k| k % size == r);
+                for (k, b) in ks.zip(beds) {
+                    slots[k] = Some(b);
+                }
+            }
+            Err(e) => errors.push(format!("rank {r} of {size}: {e}")),
+        }
+    }
+    if !errors.is_empty() {
+        return Err(TalusError::Run(errors.join("; ")));
+    }
+    let beds: Vec<BedResult> = slots.into_iter().map(|b| b.expect("every bed ran on one rank")).collect();
+    let written = write_study(dc, out, &beds, start.elapsed().as_secs_f64(), rank == 0);
+    // rank 0's write error is every rank's
+    let ok = comm.all_gather_values(written.as_ref().err().map(|e| e.to_string()));
+    match ok.into_iter().flatten().next() {
+        Some(e) if rank != 0 => Err(TalusError::Run(e)),
+        _ => written,
+    }
+}
+
+/// The study's outputs from its beds (drag_vs_displacement.csv, snapshots.csv,
+/// beds.csv, summary.json), written where `write`; returns the summary.
+fn write_study(dc: &DragCase, out: &Path, beds: &[BedResult], wall: f64, write: bool) -> Result<Map<String, Value>, TalusError> {
     let n = beds.len() as f64;
     let means: Vec<f64> = beds.iter().map(|b| b.mean_drag).collect();
     let mean = means.iter().sum::<f64>() / n;
     let std = if beds.len() > 1 { (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
+    let mut s = Map::new();
+    s.insert("case".into(), json!(dc.drag.id));
+    s.insert("shape".into(), json!(dc.drag.shape));
+    s.insert("mean_drag_n".into(), json!(mean));
+    s.insert("std_drag_n".into(), json!(std));
+    s.insert("beds".into(), json!(beds.len()));
+    s.insert("bed_mean_drag_n".into(), json!(means));
+    s.insert("average_window_m".into(), json!(dc.drag.average_window));
+    s.insert("wall_clock_s".into(), json!(wall));
+    if write {
+        write_files(dc, out, beds, &s)?;
+    }
+    Ok(s)
+}
+
+/// The study's files (see `write_study`).
+fn write_files(dc: &DragCase, out: &Path, beds: &[BedResult], s: &Map<String, Value>) -> Result<(), TalusError> {
+    let n = beds.len() as f64;
     let io = |e| TalusError::io(format!("writing into {}", out.display()), e);
     let mut f = std::io::BufWriter::new(std::fs::File::create(out.join("drag_vs_displacement.csv")).map_err(io)?);
     writeln!(f, "displacement_m,mean_drag_n,std_drag_n").map_err(io)?;
@@ -652,20 +729,11 @@ pub fn run_with(dc: &DragCase, out: &Path, between: impl FnMut() -> Result<(), T
     f.flush().map_err(io)?;
     let mut b = std::fs::File::create(out.join("beds.csv")).map_err(io)?;
     writeln!(b, "seed,mean_drag_n,steps,state_hash").map_err(io)?;
-    for bed in &beds {
+    for bed in beds {
         writeln!(b, "{},{:.6e},{},{}", bed.seed, bed.mean_drag, bed.steps, bed.state_hash).map_err(io)?;
     }
-    let mut s = Map::new();
-    s.insert("case".into(), json!(dc.drag.id));
-    s.insert("shape".into(), json!(dc.drag.shape));
-    s.insert("mean_drag_n".into(), json!(mean));
-    s.insert("std_drag_n".into(), json!(std));
-    s.insert("beds".into(), json!(beds.len()));
-    s.insert("bed_mean_drag_n".into(), json!(means));
-    s.insert("average_window_m".into(), json!(dc.drag.average_window));
-    s.insert("wall_clock_s".into(), json!(wall));
-    std::fs::write(out.join("summary.json"), serde_json::to_string_pretty(&s).unwrap() + "\n").map_err(io)?;
-    Ok(s)
+    std::fs::write(out.join("summary.json"), serde_json::to_string_pretty(s).unwrap() + "\n").map_err(io)?;
+    Ok(())
 }
 
 #[cfg(test)]

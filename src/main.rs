@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use talus::case::Case;
 use std::rc::Rc;
+use talus::parallel::agreed;
 use talus::parallel::comm::Comm;
 use talus::run::{run_on, RunOptions};
 use talus::TalusError;
@@ -97,7 +98,7 @@ enum Cmd {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // MPI only when started by mpirun (P = 1 runs without it)
-    let comm = Rc::new(if matches!(cli.cmd, Cmd::Run { .. }) { Comm::init() } else { Comm::Serial });
+    let comm = Rc::new(Comm::init());
     let (rank, size) = (comm.rank(), comm.size());
     if size > 1 {
         // a rank that panics ends the whole job, naming itself and the cause
@@ -146,7 +147,8 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
                 // checked with the case's other values
                 sets.push(format!("parallel.threads={t}"));
             }
-            let mut c = Case::load_with(&case, &sets)?;
+            // every rank reads the case: one that cannot stops them all
+            let mut c = agreed(&comm, Case::load_with(&case, &sets))?;
             if let Some(b) = balance {
                 c.parallel.balance = serde_json::from_value(serde_json::Value::String(b.clone())).map_err(|_| {
                     TalusError::Input(format!("--balance {b}: must be one of off, count, time, contacts"))
@@ -157,7 +159,7 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             });
             let opts = RunOptions { out: out.clone(), max_steps: steps, restart, progress: !quiet };
             // SIGINT / SIGTERM: finish the step, write the checkpoint and outputs, exit 130 / 143
-            talus::signals::install().map_err(|e| TalusError::io("installing the SIGINT/SIGTERM handlers", e))?;
+            agreed(&comm, talus::signals::install().map_err(|e| TalusError::io("installing the SIGINT/SIGTERM handlers", e)))?;
             let r = run_on(c, &opts, comm)?;
             if let Some(sig) = r.interrupted {
                 if root {
@@ -184,21 +186,29 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             Ok(ExitCode::SUCCESS)
         }
         Cmd::Drag { case, out, bed_case, threads } => {
-            let mut dc = talus::drag::DragCase::load(&case)?;
+            let mut dc = agreed(&comm, talus::drag::DragCase::load(&case))?;
             dc.threads = threads;
             let out = out.unwrap_or_else(|| PathBuf::from("out").join("drag").join(&dc.drag.id));
             if let Some(seed) = bed_case {
+                if !comm.is_root() {
+                    return Ok(ExitCode::SUCCESS); // one bed, written once (by rank 0)
+                }
                 let f = talus::drag::write_bed_case(&dc, seed, &out)?;
                 println!("talus: wrote {} (bed {seed} of drag case {}, at the start of the drag)", f.display(), dc.drag.id);
                 return Ok(ExitCode::SUCCESS);
             }
-            let s = talus::drag::run(&dc, &out)?;
-            println!("talus: drag case {} finished; outputs in {}", dc.drag.id, out.display());
-            for (k, v) in &s {
-                println!("  {k:<24} {v}");
+            // under mpirun the beds are dealt to the ranks; rank 0 writes and reports
+            let s = talus::drag::run_on(&dc, &out, &comm)?;
+            if comm.is_root() {
+                println!("talus: drag case {} finished; outputs in {}", dc.drag.id, out.display());
+                for (k, v) in &s {
+                    println!("  {k:<24} {v}");
+                }
             }
             Ok(ExitCode::SUCCESS)
         }
+        // the commands that only write files: under mpirun, rank 0 writes them once
+        Cmd::Export { .. } | Cmd::Meshes { .. } | Cmd::Cloud { .. } if !comm.is_root() => Ok(ExitCode::SUCCESS),
         Cmd::Export { case, to, out, sets, inserted } => {
             let target = talus::export::Target::parse(&to)?;
             let c = Case::load_with(&case, &sets)?;

@@ -125,20 +125,26 @@ impl InsertLog {
 
 impl Observer for InsertLog {
     fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
+        // the same rows on every rank: a step that inserts nothing writes nothing
         let rows = sim.take_inserted();
-        if let Some(out) = self.out.as_mut() {
-            for r in &rows {
-                let p = &r.init;
-                out.row(&format!(
-                    "{},{:.17e},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{}",
-                    r.step, r.time, p.id, p.pos.x, p.pos.y, p.pos.z, p.vel.x, p.vel.y, p.vel.z, p.radius, r.material
-                ))?;
-            }
-            if !rows.is_empty() {
-                out.flush()?;
-            }
+        if rows.is_empty() {
+            return Ok(());
         }
-        Ok(())
+        let mut written = Ok(());
+        if let Some(out) = self.out.as_mut() {
+            written = (|| {
+                for r in &rows {
+                    let p = &r.init;
+                    out.row(&format!(
+                        "{},{:.17e},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{}",
+                        r.step, r.time, p.id, p.pos.x, p.pos.y, p.pos.z, p.vel.x, p.vel.y, p.vel.z, p.radius, r.material
+                    ))?;
+                }
+                out.flush()
+            })();
+        }
+        // rank 0 writes: its failure is every rank's
+        sim.parallel().collective(written)
     }
     fn flush(&mut self) -> Result<(), TalusError> {
         match self.out.as_mut() {
@@ -268,38 +274,79 @@ impl Observer for Checkpoints {
     }
 }
 
-/// The progress bar (rank 0): step, simulated time, particle-steps per second, ETA.
+/// Progress (rank 0 alone): step, simulated time, particle-steps per second,
+/// ETA. On a terminal, a bar (indicatif); elsewhere (a pipe, a log, and every
+/// run under mpirun, which gives the ranks no terminal on stderr) a plain line
+/// on stderr every `LINE_EVERY`, the first after that long: short runs print none.
 pub struct Progress {
-    bar: indicatif::ProgressBar,
+    shown: Shown,
     start: Instant,
     first_step: u64,
+    planned: u64,
     particles: f64,
 }
 
+enum Shown {
+    Bar(indicatif::ProgressBar),
+    /// When the last line was printed.
+    Lines(Instant),
+}
+
+/// How often a run without a terminal prints a progress line.
+const LINE_EVERY: std::time::Duration = std::time::Duration::from_secs(10);
+
 impl Progress {
     pub fn new(sim: &Simulation, particles: f64) -> Progress {
+        use std::io::IsTerminal;
         let planned = (sim.planned_time() / sim.dt()).ceil() as u64;
-        let bar = indicatif::ProgressBar::new(planned);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{bar:30} step {pos}/{len}  {msg}  ETA {eta}").expect("a valid template"),
-        );
-        bar.set_position(sim.step_count());
-        Progress { bar, start: Instant::now(), first_step: sim.step_count(), particles }
+        let shown = if std::io::stderr().is_terminal() {
+            let bar = indicatif::ProgressBar::new(planned);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{bar:30} step {pos}/{len}  {msg}  ETA {eta}").expect("a valid template"),
+            );
+            bar.set_position(sim.step_count());
+            Shown::Bar(bar)
+        } else {
+            Shown::Lines(Instant::now())
+        };
+        Progress { shown, start: Instant::now(), first_step: sim.step_count(), planned, particles }
     }
 }
 
 impl Observer for Progress {
     fn after_step(&mut self, sim: &mut Simulation, _: f64) -> Result<(), TalusError> {
         let steps = sim.step_count() - self.first_step;
-        if steps % 200 == 0 {
-            let rate = self.particles * steps as f64 / self.start.elapsed().as_secs_f64();
-            self.bar.set_position(sim.step_count());
-            self.bar.set_message(format!("t = {:.4} s  {rate:.2e} particle-steps/s", sim.time()));
+        if steps % 200 != 0 {
+            return Ok(());
+        }
+        let elapsed = self.start.elapsed().as_secs_f64();
+        let rate = self.particles * steps as f64 / elapsed;
+        match &mut self.shown {
+            Shown::Bar(bar) => {
+                bar.set_position(sim.step_count());
+                bar.set_message(format!("t = {:.4} s  {rate:.2e} particle-steps/s", sim.time()));
+            }
+            Shown::Lines(last) if last.elapsed() >= LINE_EVERY => {
+                *last = Instant::now();
+                let left = self.planned.saturating_sub(sim.step_count());
+                let eta = left as f64 * elapsed / steps as f64;
+                let pct = 100.0 * sim.step_count() as f64 / self.planned.max(1) as f64;
+                eprintln!(
+                    "talus: step {}/{} ({pct:.0}%), t = {:.4} s, {rate:.2e} particle-steps/s, ETA {:.0} s",
+                    sim.step_count(),
+                    self.planned,
+                    sim.time(),
+                    eta
+                );
+            }
+            Shown::Lines(_) => {}
         }
         Ok(())
     }
     fn finish(&mut self, _: &mut Simulation, _: &mut Map<String, Value>) -> Result<(), TalusError> {
-        self.bar.finish_and_clear();
+        if let Shown::Bar(bar) = &self.shown {
+            bar.finish_and_clear();
+        }
         Ok(())
     }
 }
@@ -345,16 +392,20 @@ impl RankLog {
             }
             None => self.per_phase.push((phase.clone(), it, iw, 1)),
         }
+        let mut written = Ok(());
         if let Some(w) = self.out.as_mut() {
-            for (r, x) in c.iter().enumerate() {
-                w.row(&format!(
-                    "{:.9e},{},{phase},{r},{},{},{},{:.6e},{:.6e},{it:.5},{iw:.5}",
-                    sim.time(), sim.step_count(), x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
-                ))?;
-            }
-            w.flush()?;
+            written = (|| {
+                for (r, x) in c.iter().enumerate() {
+                    w.row(&format!(
+                        "{:.9e},{},{phase},{r},{},{},{},{:.6e},{:.6e},{it:.5},{iw:.5}",
+                        sim.time(), sim.step_count(), x.owned, x.ghosts, x.contacts, x.compute_s, x.comm_s
+                    ))?;
+                }
+                w.flush()
+            })();
         }
-        Ok(())
+        // rank 0 writes: its failure is every rank's
+        sim.parallel().collective(written)
     }
 }
 
@@ -372,7 +423,8 @@ impl Observer for RankLog {
                 summary.insert(format!("imbalance_work_{ph}"), json!(iw / *n as f64));
             }
         }
-        self.flush()
+        let flushed = self.flush();
+        sim.parallel().collective(flushed)
     }
     fn flush(&mut self) -> Result<(), TalusError> {
         match self.out.as_mut() {

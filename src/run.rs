@@ -95,8 +95,9 @@ fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Re
     if sim.case().output.final_state {
         obs.push(Box::new(FinalState::new(out)));
     }
+    // the count is a collective: every rank makes it, rank 0 alone shows the bar
+    let n = sim.particle_count() as f64;
     if progress && root {
-        let n = sim.particle_count() as f64;
         obs.push(Box::new(Progress::new(sim, n)));
     }
     Ok(obs)
@@ -130,6 +131,7 @@ impl Runner {
         }
         sim.prepare()?;
         let observers = run_observers(sim, out, progress)?;
+        test_hooks(sim);
         Ok(Runner {
             out: out.map(Path::to_path_buf),
             fail_dir: out.unwrap_or(fail_dir).to_path_buf(),
@@ -258,6 +260,23 @@ impl Runner {
     }
 }
 
+/// Test hooks for the check that every rank makes the same collectives
+/// (`crate::parallel::comm::SequenceCheck`, tests/mpi.rs), as a run starts:
+/// `TALUS_TEST_EXTRA_COLLECTIVE_RANK=R` makes rank R alone count the
+/// particles (a collective: the mistake the check is there to catch);
+/// `TALUS_TEST_STALL_RANK=R:S` makes rank R sleep S seconds.
+fn test_hooks(sim: &Simulation) {
+    let rank = sim.parallel().rank().to_string();
+    if std::env::var("TALUS_TEST_EXTRA_COLLECTIVE_RANK").is_ok_and(|r| r == rank) {
+        sim.particle_count();
+    }
+    if let Some((r, s)) = std::env::var("TALUS_TEST_STALL_RANK").ok().as_deref().and_then(|v| v.split_once(':')) {
+        if r == rank {
+            std::thread::sleep(std::time::Duration::from_secs_f64(s.parse().unwrap_or(0.0)));
+        }
+    }
+}
+
 /// Run an already built simulation; writes outputs and summary.json into `opts.out`
 /// and returns the summary.
 pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Value>, TalusError> {
@@ -294,7 +313,8 @@ pub fn run_sim(sim: &mut Simulation, opts: &RunOptions) -> Result<Map<String, Va
 /// failure checkpoint together; the series written so far are flushed.
 fn failed(sim: &mut Simulation, out: &Path, observers: &mut [Box<dyn Observer>], e: TalusError) -> TalusError {
     let ck = out.join("failure_checkpoint.bin");
-    let saved = match std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e)).and_then(|()| write_checkpoint(sim, &ck)) {
+    let made = std::fs::create_dir_all(out).map_err(|e| TalusError::io(format!("cannot create {}", out.display()), e));
+    let saved = match sim.parallel().collective(made).and_then(|()| write_checkpoint(sim, &ck)) {
         Ok(()) => format!("checkpoint of all ranks written to {}", ck.display()),
         Err(w) => format!("no checkpoint: {w}"),
     };

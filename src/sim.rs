@@ -135,7 +135,7 @@ impl Simulation {
                 }
             }
         }
-        let mut walls = build_walls(&case)?;
+        let mut walls = crate::parallel::agreed(&comm, build_walls(&case))?;
         apply_moves(&mut walls, &case, 0, 0.0);
         let s = &case.simulation;
         let domain = Domain { lo: Vec3::from(s.domain.lo), hi: Vec3::from(s.domain.hi) };
@@ -195,7 +195,7 @@ impl Simulation {
             clumps,
             inserts,
         };
-        let pool = thread_pool(&case, &par)?;
+        let pool = par.collective(thread_pool(&case, &par))?;
         let mut set = set;
         let mut par = par;
         if pool.current_num_threads() > 1 {
@@ -606,11 +606,13 @@ impl Simulation {
     }
 
     /// Exact global sums of fixed-point values (a collective).
+    #[track_caller]
     pub fn sum_exact(&self, v: &mut [i128]) {
         self.par.comm.sum_exact(v);
     }
 
     /// Kinetic energy of all particles on all ranks (J; a collective).
+    #[track_caller]
     pub fn kinetic_energy(&self) -> f64 {
         let mut v = [self.state.p.kinetic_energy_fixed()];
         self.sum_exact(&mut v);
@@ -618,6 +620,7 @@ impl Simulation {
     }
 
     /// Touching contacts over all ranks (a collective).
+    #[track_caller]
     pub fn contacts(&self) -> u64 {
         let mut v = [self.state.contacts as u64];
         self.par.comm.sum_u64(&mut v);
@@ -625,6 +628,7 @@ impl Simulation {
     }
 
     /// Total momentum of the particles on all ranks (kg m/s; exact sums, a collective).
+    #[track_caller]
     pub fn momentum(&self) -> Vec3 {
         let p = &self.state.p;
         let mut v = [0i128; 3];
@@ -638,6 +642,7 @@ impl Simulation {
     }
 
     /// Particles over all ranks (a collective).
+    #[track_caller]
     pub fn particle_count(&self) -> u64 {
         let mut v = [self.state.p.owned() as u64];
         self.par.comm.sum_u64(&mut v);
@@ -645,6 +650,7 @@ impl Simulation {
     }
 
     /// Mass of the particles with centre below z over all ranks (a collective).
+    #[track_caller]
     pub fn mass_below(&self, z: f64) -> f64 {
         let p = &self.state.p;
         let mut v = [(0..p.owned()).filter(|&i| p.pos[i].z < z).map(|i| to_fixed(p.mass[i])).sum::<i128>()];
@@ -818,10 +824,12 @@ impl Simulation {
         c.refresh_mass(p);
         c.place(p);
         let nl = &mut self.state.nl;
-        if p.len() == p.owned() && p.radius[..p.owned()].iter().all(|r| r.is_finite() && *r > 0.0) {
+        if self.par.size() == 1 && p.len() == p.owned() && p.radius[..p.owned()].iter().all(|r| r.is_finite() && *r > 0.0) {
             // no ghosts (one rank, no periodic images: a ghost would keep its
             // old radius until a build): the list stays, reaching further
-            // until the next build (the drag beds' growth rebuilt it every step)
+            // until the next build (the drag beds' growth rebuilt it every
+            // step). Under MPI each rank's growth would differ, and with it
+            // the decision to rebuild, which every rank must make together.
             nl.radii_changed(p, &self.state.walls, grown);
         } else {
             self.rebuild_list();
@@ -888,7 +896,8 @@ fn particle_inits(case: &Case, comm: &Comm) -> Result<Vec<ParticleInit>, TalusEr
             checks::memory(case, l.count, comm)?;
             return Ok(generate::lattice_cloud(l));
         }
-        ParticleSource::Csv(f) => generate::read_csv(&case.resolve(f))?,
+        // every rank reads the file: one that cannot stops them all
+        ParticleSource::Csv(f) => crate::parallel::agreed(comm, generate::read_csv(&case.resolve(f)))?,
         ParticleSource::List(list) => list_inits(&case.path.display().to_string(), list)?,
     };
     checks::memory(case, inits.len(), comm)?;

@@ -23,6 +23,7 @@ fn talus(p: usize, case: &Path, out: &Path, extra: &[&str]) -> (bool, String, Op
     args.extend(extra.iter().map(|s| s.to_string()));
     let o = cmd
         .args(&args)
+        .env("TALUS_CHECK_COLLECTIVES", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .output()
@@ -30,6 +31,124 @@ fn talus(p: usize, case: &Path, out: &Path, extra: &[&str]) -> (bool, String, Op
     let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
     let summary = std::fs::read_to_string(out.join("summary.json")).ok().map(|s| serde_json::from_str(&s).unwrap());
     (o.status.success(), text, summary)
+}
+
+/// `talus ARGS` on P ranks (P = 0: without mpirun) as a user types it: no
+/// `--quiet`, with a terminal (util-linux `script` gives the job one) or
+/// without; the ranks check that they make the same collectives. A run that
+/// has not ended after two minutes is stopped (coreutils `timeout`: exit 124).
+/// Returns (exit code, stdout + stderr).
+fn as_a_user(p: usize, args: &[&str], env: &[(&str, &str)], tty: bool) -> (i32, String) {
+    let bin = env!("CARGO_BIN_EXE_talus");
+    let mut line: Vec<String> = vec!["timeout".into(), "-k".into(), "5".into(), "120".into()];
+    if p > 0 {
+        line.extend(["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", &p.to_string()].map(String::from));
+    }
+    line.push(bin.into());
+    line.extend(args.iter().map(|s| s.to_string()));
+    let mut cmd = if tty {
+        let mut c = Command::new("script");
+        c.args(["-qec", &line.join(" "), "/dev/null"]);
+        c
+    } else {
+        let mut c = Command::new(&line[0]);
+        c.args(&line[1..]);
+        c
+    };
+    let o = cmd
+        .envs(env.iter().copied())
+        .env("TALUS_CHECK_COLLECTIVES", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start {:?}: {e}", line));
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    (o.status.code().unwrap_or(-1), text)
+}
+
+fn summary_hash(out: &Path) -> String {
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    s["state_hash"].as_str().unwrap().to_string()
+}
+
+#[test]
+fn a_run_without_quiet_ends_on_1_to_4_ranks_with_and_without_a_terminal() {
+    // README's command as a user types it, progress bar and all: before the
+    // fix rank 0 alone counted the particles for the bar (a collective), so
+    // SC-pair aborted (MPI_ERR_TRUNCATE) and H1-small hung
+    let d = tempfile::tempdir().unwrap();
+    let pair = cases_dir().join("SC-pair.toml");
+    let mut hashes = Vec::new();
+    for tty in [false, true] {
+        for p in [0, 1, 2, 3, 4] {
+            let out = d.path().join(format!("pair-{p}-{tty}"));
+            let (code, text) = as_a_user(p, &["run", pair.to_str().unwrap(), "--steps", "200", "--out", out.to_str().unwrap()], &[], tty);
+            assert_eq!(code, 0, "SC-pair on {p} ranks, terminal {tty}: {text}");
+            assert_eq!(text.matches("finished; outputs in").count(), 1, "rank 0 alone reports: {text}");
+            hashes.push(summary_hash(&out));
+        }
+    }
+    assert!(hashes.iter().all(|h| h == &hashes[0]), "{hashes:?}");
+    let small = write_case(d.path(), "H1-small.toml", |c| lattice(c).count = 1500);
+    let mut hashes = Vec::new();
+    for (p, tty) in [(0, false), (2, false), (3, true)] {
+        let out = d.path().join(format!("small-{p}"));
+        let (code, text) = as_a_user(p, &["run", small.to_str().unwrap(), "--steps", "400", "--out", out.to_str().unwrap()], &[], tty);
+        assert_eq!(code, 0, "H1-small on {p} ranks, terminal {tty}: {text}");
+        hashes.push(summary_hash(&out));
+    }
+    assert!(hashes.iter().all(|h| h == &hashes[0]), "{hashes:?}");
+}
+
+#[test]
+fn a_collective_on_some_ranks_only_ends_the_job_naming_each_ranks_collective() {
+    let d = tempfile::tempdir().unwrap();
+    let pair = cases_dir().join("SC-pair.toml");
+    for rank in ["0", "1"] {
+        let out = d.path().join(format!("extra-{rank}"));
+        let args = ["run", pair.to_str().unwrap(), "--steps", "50", "--quiet", "--out", out.to_str().unwrap()];
+        let (code, text) = as_a_user(2, &args, &[("TALUS_TEST_EXTRA_COLLECTIVE_RANK", rank)], false);
+        assert!(code != 0 && code != 124, "exit {code}: {text}");
+        assert!(text.contains("the ranks' collectives differ"), "{text}");
+        // each rank's collective, with the line that called it
+        assert!(text.contains("rank 0: collective #") && text.contains("rank 1: collective #"), "{text}");
+        assert!(text.contains("`sum_u64` called from src/run.rs:"), "{text}");
+    }
+    // a rank that never joins: the others say where they wait instead of spinning forever
+    let out = d.path().join("stall");
+    let args = ["run", pair.to_str().unwrap(), "--steps", "50", "--quiet", "--out", out.to_str().unwrap()];
+    let (code, text) = as_a_user(2, &args, &[("TALUS_TEST_STALL_RANK", "1:30"), ("TALUS_COLLECTIVE_TIMEOUT", "2")], false);
+    assert!(code != 0 && code != 124, "exit {code}: {text}");
+    assert!(text.contains("rank 0 of 2 waited 2 s in collective #") && text.contains("for the other ranks to join"), "{text}");
+}
+
+#[test]
+fn a_drag_study_under_mpirun_deals_its_beds_to_the_ranks_and_writes_the_serial_files() {
+    let d = tempfile::tempdir().unwrap();
+    // c1 cut short: 150 granules, three beds, a millimetre of travel
+    let mut t: toml::Table = toml::from_str(&std::fs::read_to_string(cases_dir().join("drag/c1.toml")).unwrap()).unwrap();
+    let drag = t.get_mut("drag").unwrap().as_table_mut().unwrap();
+    drag.insert("count".into(), 150.into());
+    drag.insert("growth_time".into(), 0.002.into());
+    drag.insert("settle_time".into(), 0.001.into());
+    drag.insert("travel".into(), 0.001.into());
+    drag.insert("average_window".into(), toml::Value::Array(vec![0.0002.into(), 0.0008.into()]));
+    drag.insert("seeds".into(), toml::Value::Array(vec![3.into(), 1.into(), 2.into()]));
+    let case = d.path().join("c1-short.toml");
+    std::fs::write(&case, toml::to_string(&t).unwrap()).unwrap();
+    let files = ["beds.csv", "drag_vs_displacement.csv", "snapshots.csv"];
+    let read = |out: &Path| files.map(|f| std::fs::read_to_string(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")));
+    let serial = d.path().join("serial");
+    let (code, text) = as_a_user(0, &["drag", case.to_str().unwrap(), "--out", serial.to_str().unwrap()], &[], false);
+    assert_eq!(code, 0, "{text}");
+    for p in [2, 3] {
+        let out = d.path().join(format!("p{p}"));
+        let (code, text) = as_a_user(p, &["drag", case.to_str().unwrap(), "--out", out.to_str().unwrap()], &[], false);
+        assert_eq!(code, 0, "{p} ranks: {text}");
+        assert_eq!(text.matches("finished; outputs in").count(), 1, "rank 0 alone reports: {text}");
+        assert!(read(&out) == read(&serial), "{p} ranks: the study's files differ from the serial run's");
+    }
 }
 
 fn hash_of(p: usize, case: &Path, out: &Path, extra: &[&str]) -> String {

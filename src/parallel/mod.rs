@@ -16,6 +16,7 @@
 
 mod balance;
 mod collective;
+pub use collective::agreed;
 pub mod comm;
 pub mod decomp;
 mod gather;
@@ -114,6 +115,7 @@ pub struct Parallel {
 }
 
 /// Every rank's items, in rank order, on every rank.
+#[track_caller]
 pub fn all_gather<T: Serialize + for<'a> Deserialize<'a>>(comm: &Comm, mine: &Vec<T>) -> Vec<T> {
     comm.all_gather_bytes(&bin(mine)).iter().flat_map(|b| unbin::<Vec<T>>(b)).collect()
 }
