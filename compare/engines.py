@@ -1,4 +1,5 @@
 """Running the three engines on one set-up; each returns the path of its raw time series."""
+import json
 import os
 import re
 import shutil
@@ -72,9 +73,11 @@ def read_case(setup):
 
 
 def toml_value(v):
-    """A Python value as a TOML value for `talus run --set KEY=VALUE`."""
+    """A Python value as a TOML value for `talus run --set KEY=VALUE` (and case files)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
     if isinstance(v, str):
-        return f'"{v}"'
+        return json.dumps(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
