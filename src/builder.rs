@@ -340,6 +340,7 @@ impl ContactSection {
             characteristic_velocity: None,
             stiffness: None,
             rolling: None,
+            cohesion: None,
         }
     }
 }

@@ -195,6 +195,10 @@ pub struct ContactSection {
     /// `rolling_friction epsd2`), with each material's `rolling_friction`.
     /// None: no rolling resistance.
     pub rolling: Option<RollingModel>,
+    /// Cohesion, added to the law's normal force: `{ model = "sjkr" | "sjkr2",
+    /// energy_density = K }` (LIGGGHTS's `cohesion sjkr` / `sjkr2`,
+    /// `crate::contact::cohesion`). None: no cohesion.
+    pub cohesion: Option<crate::contact::cohesion::Cohesion>,
 }
 
 /// The rolling resistance law.
@@ -1144,7 +1148,19 @@ impl Case {
 
     fn validate_contact(&self) -> Result<(), TalusError> {
         // the law checks its own keys
-        crate::contact::check_law(&self.contact).map_err(|e| self.err(&e.key, e.value, &e.why))
+        crate::contact::check_law(&self.contact).map_err(|e| self.err(&e.key, e.value, &e.why))?;
+        if let Some(c) = &self.contact.cohesion {
+            c.check().map_err(|e| self.err(&e.key, e.value, &e.why))?;
+            let p = &self.particles;
+            if self.simulation.dimension == Dimension::Two || !p.clumps.is_empty() || !p.ellipses.is_empty() {
+                return Err(self.err(
+                    "contact.cohesion.model",
+                    format!("\"{}\"", c.model.name()),
+                    "cohesion acts between spheres (3D, no clumps, no ellipses): its contact area is that of two overlapping spheres",
+                ));
+            }
+        }
+        Ok(())
     }
 
     fn validate_particles(&self) -> Result<(), TalusError> {

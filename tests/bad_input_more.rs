@@ -375,3 +375,27 @@ fn a_case_giving_two_or_none_of_a_choice_names_the_line_and_what_it_gave() {
         assert!(err.starts_with("talus: error: DIR/bad.toml, line ") && err.ends_with(&format!(": {msg}\n")), "{err}");
     }
 }
+
+#[test]
+fn bad_cohesion_is_refused_naming_the_key_and_the_value() {
+    let coh = |v: &str| case_text("SC-cohesive-sjkr.toml", &[("cohesion = { model = \"sjkr\", energy_density = 3.0e4 }", v)]);
+    let bad = |v: &str, msg: &str| {
+        assert_eq!(refused(&coh(v), &[]), format!("talus: error: DIR/bad.toml: {msg}\n"), "{v}");
+    };
+    bad(
+        "cohesion = { model = \"sjkr\", energy_density = -1.0 }",
+        "contact.cohesion.energy_density = -1: the cohesion energy density must be a finite number of J/m^3, 0 or more",
+    );
+    // a key the cohesion model does not read, and a model it does not know
+    let err = refused(&coh("cohesion = { model = \"sjkr\", energy_density = 3.0e4, surface_energy = 0.1 }"), &[]);
+    assert!(err.contains("DIR/bad.toml") && err.contains("surface_energy"), "{err}");
+    let err = refused(&coh("cohesion = { model = \"jkr2\", energy_density = 3.0e4 }"), &[]);
+    assert!(err.contains("DIR/bad.toml") && err.contains("jkr2") && err.contains("sjkr2"), "{err}");
+    // in 2D: the area is that of two overlapping spheres
+    let two_d = CASE_2D.replacen("[contact]\n", "[contact]\ncohesion = { model = \"sjkr2\", energy_density = 1.0e4 }\n", 1);
+    assert!(two_d != CASE_2D);
+    assert_eq!(
+        refused(&two_d, &[]),
+        "talus: error: DIR/bad.toml: contact.cohesion.model = \"sjkr2\": cohesion acts between spheres (3D, no clumps, no ellipses): its contact area is that of two overlapping spheres\n"
+    );
+}

@@ -152,3 +152,32 @@ fn normal_impacts_without_spin_still_report_zero_tangential_figures() {
         assert_eq!(s["tangential_restitution"], serde_json::Value::Null);
     }
 }
+
+/// The last probe row of a run of `case`: (column name, value).
+fn last_row(case: &str) -> std::collections::HashMap<String, f64> {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = talus::run::RunOptions { out: dir.path().to_path_buf(), ..Default::default() };
+    talus::run::run(edited(case, |_| {}), &opts).unwrap_or_else(|e| panic!("{e}"));
+    let text = std::fs::read_to_string(dir.path().join("probes.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let last: Vec<f64> = lines.last().unwrap().split(',').map(|x| x.parse().unwrap_or(f64::NAN)).collect();
+    head.into_iter().map(String::from).zip(last).collect()
+}
+
+#[test]
+fn a_slow_cohesive_impact_sticks_and_a_fast_one_rebounds_slower_than_without_cohesion() {
+    // SC-cohesive-*: spheres 1-2 meet at +/-0.02 m/s, 3-4 at +/-0.5 m/s, 5 hits the plate at 0.02 m/s
+    for case in ["SC-cohesive-sjkr.toml", "SC-cohesive-sjkr2.toml"] {
+        let r = last_row(case);
+        let v = |k: &str| r[k];
+        // stuck: overlapping at the end, the relative velocity damped out (< 1e-3 of the impact's)
+        assert!(v("p2_x_m") - v("p1_x_m") < 0.004, "{case}: the slow pair separated");
+        assert!((v("p2_vx_m_s") - v("p1_vx_m_s")).abs() < 4e-5, "{case}: slow pair still moving");
+        assert!(v("p5_z_m") - 0.002 < -0.01 && v("p5_vz_m_s").abs() < 1e-4, "{case}: the sphere left the plate");
+        // rebound: apart, slower than the restitution 0.5 of the cohesionless law gives
+        let e = (v("p4_vx_m_s") - v("p3_vx_m_s")) / 1.0;
+        assert!(v("p4_x_m") - v("p3_x_m") > 0.004 && e > 0.2 && e < 0.48, "{case}: fast pair's restitution {e}");
+        assert_eq!(v("contacts"), 2.0, "{case}");
+    }
+}

@@ -75,6 +75,7 @@ def test_what_yade_cannot_run_is_refused_naming_the_key(tmp_path):
         ("SC-wall.toml", lambda t: t.replace('convention = "talus"', 'convention = "talus"\ntangential = "total"'), "contact.tangential"),
         ("SC-wall.toml", lambda t: t.replace('convention = "talus"', 'convention = "talus"\ndamping = "liggghts"'), "contact.damping"),
         ("SC-wall-hooke.toml", lambda t: t.replace('convention = "talus"', 'convention = "talus"\nshear_kinematics = "full_radii"'), "contact.shear_kinematics"),
+        ("SC-cohesive-sjkr.toml", lambda t: t.replace('convention = "liggghts"', 'convention = "yade"'), "contact.cohesion.model"),
     ]:
         p = tmp_path / case
         p.write_text(edit((CASES / case).read_text()))
@@ -289,3 +290,15 @@ def test_the_cooling_gas_collides_across_periodic_faces_as_liggghts_and_yade_do(
     ty, yad = same_steps(probes(tmp_path / "ty" / "probes.csv"), yad)
     np.testing.assert_allclose(ty["kinetic_energy_j"], yad["kinetic_energy_j"], rtol=1e-6)
     np.testing.assert_array_equal(ty["contacts"], yad["contacts"])
+
+
+def test_cohesion_is_exported_to_liggghts_on_pairs_and_walls_with_its_energy_density(tmp_path):
+    # (the cohesive collisions themselves are compared with LIGGGHTS to 1e-6 in scripts/compare_all.sh)
+    for model, k in [("sjkr", "3.0000000000000000e4"), ("sjkr2", "1.5000000000000000e4")]:
+        out = tmp_path / model
+        subprocess.run([str(engines.TALUS), "export", str(CASES / f"SC-cohesive-{model}.toml"), "--to", "liggghts", "--out", str(out)],
+                       check=True, capture_output=True)
+        deck = (out / "in.talus").read_text()
+        assert f"fix m7 all property/global cohesionEnergyDensity peratomtypepair 1 {k}" in deck, deck
+        lines = [ln for ln in deck.splitlines() if ln.startswith("pair_style") or " wall/gran " in ln]
+        assert len(lines) == 2 and all(f"cohesion {model}" in ln for ln in lines), lines

@@ -17,6 +17,7 @@
 //! The conventions of the reference codes are resolved in one place,
 //! [`conventions::resolve`].
 
+pub mod cohesion;
 pub mod conventions;
 pub mod ellipse;
 pub mod geometry;
@@ -291,6 +292,11 @@ pub fn evaluate<L: ContactLaw>(
         FrictionCap::Elastic => c.f_elastic,
     };
     let f_t = tangential(c, o.tang.history, pm.friction * f_cap, g.n, v_t, hist, dt);
+    // cohesion pulls along the normal, beside the law's force (not in the cap: LIGGGHTS's
+    // `tangential_reduce off`); spheres only (the case refuses it for other shapes)
+    if let (Some(coh), geometry::Lever::AlongNormal { radius_i, radius_j, .. }) = (o.cohesion, g.lever) {
+        f_n += coh.force(radius_i, radius_j, g.overlap);
+    }
     let force = g.n * f_n + f_t;
     let (mut torque_i, mut torque_j) = g.torques(force);
     if let Some(model) = o.rolling {

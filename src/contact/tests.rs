@@ -42,7 +42,7 @@ fn geom(overlap: f64) -> ContactGeom {
 }
 
 fn opts(end: EndOfContact, tang: TangentialOptions) -> ContactOptions {
-    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None, rolling_wall_spin_scaled: false }
+    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None, rolling_wall_spin_scaled: false, cohesion: None }
 }
 
 /// Body i moving at v relative to a body j at rest, neither spinning.
@@ -131,6 +131,7 @@ fn conventions_fill_every_option_not_given() {
         characteristic_velocity: None,
         stiffness: None,
         rolling: None,
+        cohesion: None,
     };
     let t = conventions::resolve(&section(Convention::Talus, ModelName::Hertz));
     assert_eq!((t.damping, t.end, t.tang.history), (HertzDamping::Liggghts, EndOfContact::Tensile, TangentialHistory::Total));
@@ -395,4 +396,36 @@ fn hooke_takes_exactly_one_of_stiffness_and_characteristic_velocity_whichever_la
     c.stiffness = Some(HookeExplicit { kn: -1.0, ..h });
     let e = check_law(&c).unwrap_err();
     assert_eq!((e.key.as_str(), e.value.as_str()), ("contact.stiffness.kn", "-1"));
+}
+
+#[test]
+fn cohesion_pulls_beside_the_law_and_leaves_the_friction_cap_alone() {
+    use super::cohesion::{Cohesion, CohesionModel};
+    let p = pm(0.5, 0.4);
+    let pi = PairInertia::particles(0.002, 0.002, 1e-4, 1e-4);
+    let d = 1e-4;
+    for model in [CohesionModel::Sjkr, CohesionModel::Sjkr2] {
+        let coh = Cohesion { model, energy_density: 3e4 };
+        let with = ContactOptions { cohesion: Some(coh), ..opts(EndOfContact::Tensile, TANG) };
+        let law = Hertz { damping: HertzDamping::Liggghts };
+        let run = |o: &ContactOptions, g: &ContactGeom, v: Vec3| {
+            // (a step long enough that the shear spring passes the Coulomb cap at once)
+            law.contact(o, &p, pi, &(), g, &moving(v), &mut Vec3::zeros(), &mut Vec3::zeros(), 1.0)
+        };
+        for g in [geom(d), along(Vec3::z(), d, 0.002 - d / 2.0, 0.0)] {
+            let Lever::AlongNormal { radius_i, radius_j, .. } = g.lever else { unreachable!("spheres") };
+            // at rest: the law's elastic force plus -k A along the normal
+            let (a, b) = (run(&opts(EndOfContact::Tensile, TANG), &g, Vec3::zeros()), run(&with, &g, Vec3::zeros()));
+            let f_coh = coh.force(radius_i, radius_j, d);
+            assert!(f_coh < 0.0);
+            assert_relative_eq!(b.force.z, a.force.z + f_coh, max_relative = 1e-14);
+            assert_relative_eq!(b.normal, a.normal + f_coh, max_relative = 1e-14);
+            // sliding: the tangential force is capped by mu times the law's normal force, cohesion aside
+            let (a, b) = (run(&opts(EndOfContact::Tensile, TANG), &g, Vec3::x()), run(&with, &g, Vec3::x()));
+            assert_eq!(a.force.x, b.force.x);
+            assert_relative_eq!(b.force.x.abs(), 0.4 * a.normal.abs(), max_relative = 1e-12);
+        }
+        // no overlap, no cohesion (it does not reach beyond contact)
+        assert_eq!(coh.force(0.002, 0.002, 0.0), 0.0);
+    }
 }

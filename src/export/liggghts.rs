@@ -440,6 +440,9 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
                 Kind::Mesh
             }
             Shape::Disc(_) => {
+                if let Some(c) = case.contact.cohesion {
+                    return Err(refuse(case, &format!("contact.cohesion.model = \"{}\" with the ball wall {}", c.model.name(), ws.name), "a ball wall is an atom in the LIGGGHTS deck, whose cohesion takes the two-sphere area; talus's walls take the flat one"));
+                }
                 for (mo, a) in motions.iter().zip(&at) {
                     if mo.rotation.is_some() {
                         return Err(refuse(case, &format!("{}.rotation", a.key), "a ball wall is an atom moved by `fix move` in the LIGGGHTS deck: turning balls (and a ball's axis torque) are not written"));
@@ -485,6 +488,11 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
         Some(crate::case::RollingModel::Cdt) => format!("{model} rolling_friction cdt"),
         Some(crate::case::RollingModel::Epsd2) => format!("{model} rolling_friction epsd2"),
         None => model.to_string(),
+    };
+    // cohesion: LIGGGHTS's own sjkr / sjkr2, the same on the pair style and every wall fix
+    let model = match case.contact.cohesion {
+        Some(c) => format!("{model} cohesion {}", c.model.name()),
+        None => model,
     };
     let model = model.as_str();
 
@@ -553,6 +561,9 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
     let mixed = |a: usize, b: usize| mix(&case.materials[a], &case.materials[b], Mixing::Liggghts);
     let _ = writeln!(w, "fix m3 all property/global coefficientRestitution peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).restitution));
     let _ = writeln!(w, "fix m4 all property/global coefficientFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).friction));
+    if let Some(c) = case.contact.cohesion {
+        let _ = writeln!(w, "fix m7 all property/global cohesionEnergyDensity peratomtypepair {nmat} {}", pair(&|_, _| c.energy_density));
+    }
     if case.contact.rolling.is_some() {
         notes.push("rolling resistance: a primitive wall's torque column is the moment of the contact forces only (talus's also takes the rolling torques' reaction)".into());
         let _ = writeln!(w, "fix m6 all property/global coefficientRollingFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).rolling_friction));

@@ -82,6 +82,13 @@ fn check(case: &Case) -> Result<(), TalusError> {
         }
         _ => {}
     }
+    if let Some(coh) = &c.cohesion {
+        return Err(refuse(
+            case,
+            &format!("contact.cohesion.model = \"{}\"", coh.model.name()),
+            "YADE 2023 has no simplified-JKR cohesion (a force proportional to the overlap's area); its Mindlin adhesion is DMT's constant pull-off",
+        ));
+    }
     if c.rolling.is_some() {
         let why = match c.rolling {
             Some(crate::case::RollingModel::Epsd2) => "YADE 2023's Hertz-Mindlin law has no elastic-plastic rolling spring capped at mu_r F_n R (its rolling moment, Law2_ScGeom6D_CohFrictPhys_CohesionMoment, comes with a linear normal law)",
