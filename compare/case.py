@@ -1,8 +1,14 @@
-"""python -m compare CASE.toml [--engines talus,liggghts] [--out DIR] [--set KEY=VALUE] [--reuse]
+"""python -m compare CASE.toml [--engines talus,liggghts] [--out DIR] [--set KEY=VALUE] [--replicas K] [--perturb KEY=VALUE] [--reuse]
 
 Any case against the reference codes: the case is exported (`talus export --to ENGINE`)
 and run there, talus runs it in that engine's convention, and one piece of code
-measures both from their probes.csv:
+measures both from their probes.csv.
+
+By default each engine runs K replicas of the case (the case's `[compare] replicas`,
+else 4) that differ at round-off, and the two ensembles are compared: step by step until
+the replicas part, by window statistics and figures after (compare/ensemble.py, which
+says how). With one replica (`--replicas 1`, or `replicas = 1` as the deterministic SC
+set-ups have) single runs are compared as follows:
 
 - the case's analysis figures where it has them (`collision`: restitution, contact
   duration, peak overlap and normal force, tangential rebound, spin; `hopper`: discharge
@@ -32,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import ensemble
 from .engines import TALUS, EngineError, check_versions
 from .regress import DEFAULTS
 
@@ -93,11 +100,12 @@ def check_reached_end(engine, log):
                           f"was it interrupted?):\n{text[-800:]}")
 
 
-def run_reference(case, engine, out, inserted=None):
+def run_reference(case, engine, out, inserted=None, extra=()):
     """The reference engine on the exported case; a case that inserts particles brings in
-    those of `inserted` (the inserted.csv of talus's run in that engine's convention)."""
+    those of `inserted` (the inserted.csv of talus's run in that engine's convention).
+    `extra`: more `--set KEY=VALUE` for the export (a replica's particles)."""
     out.mkdir(parents=True, exist_ok=True)
-    cmd = [TALUS, "export", case, "--to", engine, "--out", out, *[a for kv in SETS for a in ("--set", kv)]]
+    cmd = [TALUS, "export", case, "--to", engine, "--out", out, *[a for kv in [*SETS, *extra] for a in ("--set", kv)]]
     if inserted is not None and Path(inserted).exists():
         cmd += ["--inserted", inserted]
     what = " ".join(map(str, cmd))
@@ -457,17 +465,24 @@ def plot(out, name, talus, refs):
         for label, s in talus_and_refs(talus, refs):
             if c in s:
                 ax.plot(s["time_s"], s[c], label=label, lw=1)
-        ax.set_xlabel("time_s")
-        ax.set_ylabel(c)
-        ax.set_title(f"{name}: {c}", fontsize=9)
-        if ax.get_lines():
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        p = out / "plots" / f"{c}.png"
-        fig.savefig(p, dpi=90)
-        plt.close(fig)
-        paths[c] = p
+        paths[c] = save_plot(fig, ax, out, c, f"{name}: {c}")
     return paths
+
+
+def save_plot(fig, ax, out, column, title):
+    """A column's plot, labelled, into out/plots/COLUMN.png (its path)."""
+    import matplotlib.pyplot as plt
+
+    ax.set_xlabel("time_s")
+    ax.set_ylabel(column)
+    ax.set_title(title, fontsize=8)
+    if ax.get_lines():
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    p = out / "plots" / f"{column}.png"
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    return p
 
 
 def talus_and_refs(talus, refs):
@@ -484,6 +499,12 @@ def main(argv=None):
                     help="with both references: do not run talus once per convention option to explain where they disagree")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="change one value of the case in every engine (as `talus run --set`); repeatable")
+    ap.add_argument("--replicas", type=int, metavar="K",
+                    help="replicas per engine, compared as ensembles (compare/ensemble.py): default the case's "
+                         "[compare] replicas, else 4; 1 compares single runs step by step")
+    ap.add_argument("--perturb", action="append", default=[], metavar="KEY=VALUE",
+                    help="change one value of the case in talus's runs only (the power check: a real change must "
+                         "be found, a null one not); repeatable")
     ap.add_argument("--reuse", action="store_true",
                     help="read the runs already finished in the output folder with the same command line instead of running them again "
                          "(a long comparison can be finished in parts; an edited case file or a rebuilt talus is not detected)")
@@ -511,13 +532,23 @@ def main(argv=None):
         tol.setdefault(k, v)
     out = a.out or Path("out") / "compare" / a.case.stem
     out.mkdir(parents=True, exist_ok=True)
+    k_reps = a.replicas if a.replicas is not None else int(tol.get("replicas", ensemble.DEFAULT_REPLICAS))
+    if k_reps < 1:
+        print(f"compare: --replicas {k_reps}: at least 1", file=sys.stderr)
+        return 2
+    if k_reps > 1:
+        try:
+            return ensemble.compare(a.case, case, refs, tol, out, k_reps, a.perturb)
+        except EngineError as e:
+            print(f"compare: {e}", file=sys.stderr)
+            return 2
     result = {"case": str(a.case), "tolerances": tol, "engines": {}, "checks": {}}
     talus_series, ref_series, kept = {}, {}, {}
     def runs_for(ref):
         # talus in the reference's convention, then the reference (which takes the
         # particles talus inserted)
         conv = CONVENTION[ref]
-        ts, summary = run_talus(a.case, conv, out / f"talus-{conv}")
+        ts, summary = run_talus(a.case, conv, out / f"talus-{conv}", a.perturb)
         return ts, summary, run_reference(a.case, ref, out / ref, out / f"talus-{conv}" / "inserted.csv")
 
     try:

@@ -777,6 +777,10 @@ pub struct CompareSection {
     pub ignore: Vec<String>,
     /// Steps of a `compare regress` run (default: the whole case).
     pub regress_steps: Option<u64>,
+    /// Replicas per engine in `python3 -m compare CASE.toml` (default 4): runs
+    /// that differ at round-off, compared as ensembles (compare/ensemble.py);
+    /// 1 compares single runs step by step (the deterministic SC set-ups).
+    pub replicas: Option<u32>,
 }
 
 fn default_figure_rel() -> f64 {
@@ -801,6 +805,7 @@ impl Default for CompareSection {
             window_means: Default::default(),
             ignore: Vec::new(),
             regress_steps: None,
+            replicas: None,
         }
     }
 }
@@ -1003,6 +1008,9 @@ impl Case {
             if !(w[0].is_finite() && w[1].is_finite() && w[0] >= 0.0 && w[0] < w[1]) {
                 return Err(self.err(&format!("compare.windows[{i}]"), format!("[{}, {}]", w[0], w[1]), "a window is [t0, t1] (s) with 0 <= t0 < t1"));
             }
+        }
+        if c.replicas == Some(0) {
+            return Err(self.err("compare.replicas", 0, "must be 1 or more (1: single runs compared step by step)"));
         }
         if c.regress_steps == Some(0) {
             return Err(self.err("compare.regress_steps", 0, "must be 1 or more (leave it out for the whole case)"));

@@ -399,3 +399,8 @@ fn bad_cohesion_is_refused_naming_the_key_and_the_value() {
         "talus: error: DIR/bad.toml: contact.cohesion.model = \"sjkr2\": cohesion acts between spheres (3D, no clumps, no ellipses): its contact area is that of two overlapping spheres\n"
     );
 }
+
+#[test]
+fn a_comparison_of_no_replicas_is_refused() {
+    expect("SC-pair.toml", &[("replicas = 1 ", "replicas = 0 ")], "compare.replicas = 0: must be 1 or more (1: single runs compared step by step)");
+}

@@ -23,7 +23,11 @@
 //! own normal force. It acts between spheres and against every wall (planes,
 //! meshes, balls: a wall is a body of infinite radius).
 
-use super::KeyError;
+use super::geometry::{ContactGeom, Lever, Motion};
+use super::{ContactForce, ContactLaw, ContactOptions, KeyError, NormalCoeffs, PairInertia};
+use crate::case::ContactSection;
+use crate::material::PairMaterial;
+use crate::dim::Vec3;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -97,6 +101,61 @@ impl Cohesion {
     #[inline(always)]
     pub fn force(&self, r_i: f64, r_j: f64, overlap: f64) -> f64 {
         -self.energy_density * self.area(r_i, r_j, overlap)
+    }
+}
+
+/// A contact law with cohesion: the law's force and torques, then -k A along
+/// the normal (`contact::dispatch` wraps the case's law in it where
+/// `contact.cohesion` is given, so the sweeps without cohesion are compiled
+/// without it). A force along the normal through the centres adds no torque.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cohesive<L: ContactLaw> {
+    pub law: L,
+    pub cohesion: Cohesion,
+}
+
+impl<L: ContactLaw> ContactLaw for Cohesive<L> {
+    type Pair = L::Pair;
+    const USES_INERTIA: bool = L::USES_INERTIA;
+
+    fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError> {
+        let cohesion = c.cohesion.ok_or_else(|| KeyError::new("contact.cohesion", "(none)", "a cohesive law needs contact.cohesion"))?;
+        cohesion.check()?;
+        Ok(Cohesive { law: L::from_case(c, o)?, cohesion })
+    }
+
+    #[inline(always)]
+    fn pair(&self, pm: &PairMaterial, pi: PairInertia) -> Self::Pair {
+        self.law.pair(pm, pi)
+    }
+
+    #[inline(always)]
+    fn normal(&self, pm: &PairMaterial, pi: PairInertia, pair: &Self::Pair, overlap: f64) -> NormalCoeffs {
+        self.law.normal(pm, pi, pair, overlap)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn contact(
+        &self,
+        o: &ContactOptions,
+        pm: &PairMaterial,
+        pi: PairInertia,
+        pair: &Self::Pair,
+        g: &ContactGeom,
+        m: &Motion,
+        hist: &mut Vec3,
+        roll: &mut Vec3,
+        dt: f64,
+    ) -> ContactForce {
+        let mut c = self.law.contact(o, pm, pi, pair, g, m, hist, roll, dt);
+        // spheres only: the case refuses cohesion for other shapes
+        if let Lever::AlongNormal { radius_i, radius_j, .. } = g.lever {
+            let f = self.cohesion.force(radius_i, radius_j, g.overlap);
+            c.force += g.n * f;
+            c.normal += f;
+        }
+        c
     }
 }
 

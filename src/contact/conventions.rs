@@ -31,8 +31,6 @@ pub struct ContactOptions {
     /// epsd2 integrates as it is; cdt uses only its direction); else by the
     /// spin itself (talus, YADE).
     pub rolling_wall_spin_scaled: bool,
-    /// Cohesion added to the normal force (no convention default: given or none).
-    pub cohesion: Option<super::cohesion::Cohesion>,
 }
 
 /// The options of the case's `[contact]` section: each one given, or its
@@ -80,6 +78,5 @@ pub fn resolve(c: &ContactSection) -> ContactOptions {
         mixing,
         rolling: c.rolling,
         rolling_wall_spin_scaled: conv == Liggghts,
-        cohesion: c.cohesion,
     }
 }

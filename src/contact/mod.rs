@@ -38,11 +38,22 @@ use serde::{Deserialize, Serialize};
 /// `hooke` with explicit `stiffness` is its own law type
 /// ([`hooke::HookeExplicit`]): one set of coefficients for every pair, held by
 /// the law, so the sweep reads no per-pair constants and computes no R*, m*.
+/// With `contact.cohesion` the law is wrapped in [`cohesion::Cohesive`], so a
+/// sweep without cohesion carries no trace of it.
 pub fn dispatch<U: LawUser>(c: &ContactSection, user: U) -> U::Out {
     match c.model {
-        ModelName::Hooke if c.stiffness.is_some() => user.with::<hooke::HookeExplicit>(),
-        ModelName::Hooke => user.with::<hooke::Hooke>(),
-        ModelName::Hertz => user.with::<hertz::Hertz>(),
+        ModelName::Hooke if c.stiffness.is_some() => with_cohesion::<U, hooke::HookeExplicit>(c, user),
+        ModelName::Hooke => with_cohesion::<U, hooke::Hooke>(c, user),
+        ModelName::Hertz => with_cohesion::<U, hertz::Hertz>(c, user),
+    }
+}
+
+/// `user` with law L, or with L and the case's cohesion sub-model.
+fn with_cohesion<U: LawUser, L: ContactLaw>(c: &ContactSection, user: U) -> U::Out {
+    if c.cohesion.is_some() {
+        user.with::<cohesion::Cohesive<L>>()
+    } else {
+        user.with::<L>()
     }
 }
 
@@ -292,11 +303,6 @@ pub fn evaluate<L: ContactLaw>(
         FrictionCap::Elastic => c.f_elastic,
     };
     let f_t = tangential(c, o.tang.history, pm.friction * f_cap, g.n, v_t, hist, dt);
-    // cohesion pulls along the normal, beside the law's force (not in the cap: LIGGGHTS's
-    // `tangential_reduce off`); spheres only (the case refuses it for other shapes)
-    if let (Some(coh), geometry::Lever::AlongNormal { radius_i, radius_j, .. }) = (o.cohesion, g.lever) {
-        f_n += coh.force(radius_i, radius_j, g.overlap);
-    }
     let force = g.n * f_n + f_t;
     let (mut torque_i, mut torque_j) = g.torques(force);
     if let Some(model) = o.rolling {

@@ -42,7 +42,7 @@ fn geom(overlap: f64) -> ContactGeom {
 }
 
 fn opts(end: EndOfContact, tang: TangentialOptions) -> ContactOptions {
-    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None, rolling_wall_spin_scaled: false, cohesion: None }
+    ContactOptions { damping: HertzDamping::Liggghts, end, tang, wall_arm_overlap: 0.5, mixing: Mixing::Liggghts, rolling: None, rolling_wall_spin_scaled: false }
 }
 
 /// Body i moving at v relative to a body j at rest, neither spinning.
@@ -406,22 +406,28 @@ fn cohesion_pulls_beside_the_law_and_leaves_the_friction_cap_alone() {
     let d = 1e-4;
     for model in [CohesionModel::Sjkr, CohesionModel::Sjkr2] {
         let coh = Cohesion { model, energy_density: 3e4 };
-        let with = ContactOptions { cohesion: Some(coh), ..opts(EndOfContact::Tensile, TANG) };
+        let o = opts(EndOfContact::Tensile, TANG);
         let law = Hertz { damping: HertzDamping::Liggghts };
-        let run = |o: &ContactOptions, g: &ContactGeom, v: Vec3| {
+        let cohesive = super::cohesion::Cohesive { law, cohesion: coh };
+        let run = |cohesive_law: bool, g: &ContactGeom, v: Vec3| {
             // (a step long enough that the shear spring passes the Coulomb cap at once)
-            law.contact(o, &p, pi, &(), g, &moving(v), &mut Vec3::zeros(), &mut Vec3::zeros(), 1.0)
+            let (h, r) = (&mut Vec3::zeros(), &mut Vec3::zeros());
+            if cohesive_law {
+                cohesive.contact(&o, &p, pi, &(), g, &moving(v), h, r, 1.0)
+            } else {
+                law.contact(&o, &p, pi, &(), g, &moving(v), h, r, 1.0)
+            }
         };
         for g in [geom(d), along(Vec3::z(), d, 0.002 - d / 2.0, 0.0)] {
             let Lever::AlongNormal { radius_i, radius_j, .. } = g.lever else { unreachable!("spheres") };
             // at rest: the law's elastic force plus -k A along the normal
-            let (a, b) = (run(&opts(EndOfContact::Tensile, TANG), &g, Vec3::zeros()), run(&with, &g, Vec3::zeros()));
+            let (a, b) = (run(false, &g, Vec3::zeros()), run(true, &g, Vec3::zeros()));
             let f_coh = coh.force(radius_i, radius_j, d);
             assert!(f_coh < 0.0);
             assert_relative_eq!(b.force.z, a.force.z + f_coh, max_relative = 1e-14);
             assert_relative_eq!(b.normal, a.normal + f_coh, max_relative = 1e-14);
             // sliding: the tangential force is capped by mu times the law's normal force, cohesion aside
-            let (a, b) = (run(&opts(EndOfContact::Tensile, TANG), &g, Vec3::x()), run(&with, &g, Vec3::x()));
+            let (a, b) = (run(false, &g, Vec3::x()), run(true, &g, Vec3::x()));
             assert_eq!(a.force.x, b.force.x);
             assert_relative_eq!(b.force.x.abs(), 0.4 * a.normal.abs(), max_relative = 1e-12);
         }
