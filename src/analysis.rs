@@ -155,6 +155,11 @@ impl Analysis {
                         };
                         (pl.normal, Some(wi), None)
                     }
+                    (None, Some(j)) if j == particle => {
+                        return Err(TalusError::Input(format!(
+                            "{path}: analysis.partner = {j}: the partner is the particle itself (analysis.particle = {particle}); name another particle, or a wall"
+                        )));
+                    }
                     (None, Some(j)) => {
                         let j = particle_index(*j, "partner")?;
                         ((p.pos[i] - p.pos[j]).normalize(), None, Some(j))

@@ -173,6 +173,24 @@ impl DragCase {
         if d.count == 0 || d.seeds.is_empty() {
             return Err(self.err("count", d.count, "need at least one granule and one seed"));
         }
+        // before any bed is made: every bed running at once holds its granules (a
+        // dumbbell two discs) in a simulation of its own
+        let beds = d.seeds.len().min(self.threads.unwrap_or(usize::MAX)).min(std::thread::available_parallelism().map_or(1, |n| n.get()));
+        let bodies = if d.shape == GranuleShape::Dumbbell { 2.0 } else { 1.0 };
+        let need = d.count as f64 * bodies * beds as f64 * crate::checks::BYTES_PER_PARTICLE;
+        if let Some((avail, source)) = crate::checks::available_memory() {
+            if need > avail {
+                return Err(self.err(
+                    "count",
+                    d.count,
+                    &format!(
+                        "{beds} bed(s) side by side of {} granules need about {need:.3e} bytes of memory ({} bytes per particle, a generous estimate), more than the {avail:.3e} bytes available ({source})",
+                        d.count,
+                        crate::checks::BYTES_PER_PARTICLE
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 

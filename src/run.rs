@@ -114,6 +114,77 @@ pub struct Runner {
     observers: Vec<Box<dyn Observer>>,
     start: Instant,
     first_step: u64,
+    /// The kinetic energy no run of this case can reach unless it goes wrong.
+    watch: EnergyWatch,
+}
+
+/// A run that blows up (a time step far too large for its contacts: energy
+/// made from nothing) is stopped, not run to its end: where nothing feeds the
+/// particles energy (no wall moves, nothing is inserted, gravity has no part
+/// along a periodic axis), their kinetic energy can never exceed what they
+/// started with plus their weight falling through the whole domain. Every
+/// `EnergyWatch::EVERY` steps the kinetic energy (a collective) is held
+/// against 100 times that.
+struct EnergyWatch {
+    /// Joules; None where something feeds the particles energy.
+    limit: Option<f64>,
+    /// What the limit is made of, for the message.
+    basis: String,
+}
+
+impl EnergyWatch {
+    const EVERY: u64 = 20;
+    const FACTOR: f64 = 100.0;
+
+    /// A collective (every rank makes the same sums).
+    fn new(sim: &Simulation) -> EnergyWatch {
+        let c = sim.case();
+        let moves = c.walls.iter().any(|w| w.velocity != [0.0; 3] || w.rotation.is_some() || w.oscillation.is_some() || w.servo.is_some())
+            || c.phases.iter().any(|p| !p.moves.is_empty() || !p.inserts.is_empty());
+        let d = &c.simulation.domain;
+        let g = c.simulation.gravity;
+        let periodic_fall = (0..3).any(|k| d.is_periodic(k) && g[k] != 0.0);
+        let ke = sim.kinetic_energy();
+        let mut m = [crate::fixed::to_fixed(sim.particles().total_mass())];
+        sim.sum_exact(&mut m);
+        let mass = crate::fixed::from_fixed(m[0]);
+        let fall: f64 = mass * (0..3).map(|k| g[k].abs() * (d.hi[k] - d.lo[k])).sum::<f64>();
+        let base = ke + fall;
+        let limit = (!moves && !periodic_fall && base > 0.0).then_some(Self::FACTOR * base);
+        let basis = format!("the initial kinetic energy {ke:.4e} J plus the particles' weight falling through the whole domain, {fall:.4e} J");
+        EnergyWatch { limit, basis }
+    }
+
+    /// Whether the run has gone wrong at this step (a collective on the steps it checks).
+    fn check(&self, sim: &Simulation) -> Result<(), TalusError> {
+        let Some(limit) = self.limit else { return Ok(()) };
+        if sim.step_count() % Self::EVERY != 0 {
+            return Ok(());
+        }
+        // each rank's own sum in floating point (no fixed-point conversion per
+        // particle: this runs while the run goes), then the ranks' sums exactly
+        let p = sim.particles();
+        let mine: f64 = (0..p.owned()).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 / p.inv_inertia[i] * p.omega[i].norm_squared()).sum();
+        // (a NaN or an energy past 1e15 J counts as 1e15 J: the fixed-point sum holds 9e18 J)
+        let mut v = [crate::fixed::to_fixed(if mine.is_finite() { mine.min(1e15) } else { 1e15 })];
+        sim.sum_exact(&mut v);
+        let ke = crate::fixed::from_fixed(v[0]);
+        if ke <= limit {
+            return Ok(());
+        }
+        let s = &sim.case().simulation;
+        let dt = sim.dt();
+        let step = match s.timestep {
+            crate::case::TimeStep::Seconds(x) => format!("simulation.timestep = {x}"),
+            crate::case::TimeStep::RayleighFraction(f) => format!("simulation.timestep_rayleigh_fraction = {f}"),
+        };
+        Err(TalusError::Run(format!(
+            "the kinetic energy grew to {ke:.4e} J, more than {} times what the case can give ({}), with no wall moving and nothing inserted: the run made energy from nothing; is the time step ({step}: {dt:.4e} s, {:.0}% of the Rayleigh time) too large for its contacts?",
+            Self::FACTOR,
+            self.basis,
+            100.0 * dt / sim.rayleigh_time()
+        )))
+    }
 }
 
 impl Runner {
@@ -132,12 +203,14 @@ impl Runner {
         sim.prepare()?;
         let observers = run_observers(sim, out, progress)?;
         test_hooks(sim);
+        let watch = EnergyWatch::new(sim);
         Ok(Runner {
             out: out.map(Path::to_path_buf),
             fail_dir: out.unwrap_or(fail_dir).to_path_buf(),
             observers,
             start: Instant::now(),
             first_step: sim.step_count(),
+            watch,
         })
     }
 
@@ -169,7 +242,7 @@ impl Runner {
     /// the domain) writes the failure checkpoint and flushes the outputs first.
     pub fn step(&mut self, sim: &mut Simulation) -> Result<(), TalusError> {
         let t_prev = sim.time();
-        if let Err(e) = sim.step() {
+        if let Err(e) = sim.step().and_then(|()| self.watch.check(sim)) {
             return Err(failed(sim, &self.fail_dir, &mut self.observers, e));
         }
         for o in self.observers.iter_mut() {

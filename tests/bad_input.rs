@@ -99,12 +99,14 @@ fn unreadable_and_degenerate_stl_are_refused() {
     let degenerate = d.path().join("flat.stl");
     std::fs::write(
         &degenerate,
-        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 2 0 0\nendloop\nendfacet\nendsolid t\n",
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n\
+         facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 2 0 0\nendloop\nendfacet\nendsolid t\n",
     )
     .unwrap();
     let e2 = stl_edit(&degenerate);
     let (ok, err) = run_edited(d.path(), "SC-wall.toml", &[("plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }", &e2), ("[analysis]\nkind = \"collision\"\nparticle = 1\nwall = \"plate\"\n", "")]);
-    assert!(!ok && err.contains("flat.stl") && err.contains("facet 0 is degenerate"), "{err}");
+    // the facet's line and its number in the file (the second facet, at line 9)
+    assert!(!ok && err.contains("flat.stl, line 9 (facet 2 of 2): the facet is degenerate (zero area)"), "{err}");
     let missing = d.path().join("missing.stl");
     let e3 = stl_edit(&missing);
     let (ok, err) = run_edited(d.path(), "SC-wall.toml", &[("plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }", &e3), ("[analysis]\nkind = \"collision\"\nparticle = 1\nwall = \"plate\"\n", "")]);

@@ -404,3 +404,43 @@ fn bad_cohesion_is_refused_naming_the_key_and_the_value() {
 fn a_comparison_of_no_replicas_is_refused() {
     expect("SC-pair.toml", &[("replicas = 1 ", "replicas = 0 ")], "compare.replicas = 0: must be 1 or more (1: single runs compared step by step)");
 }
+
+#[test]
+fn a_collision_with_itself_and_a_dimension_of_4_name_the_value() {
+    expect(
+        "SC-pair.toml",
+        &[("partner = 2", "partner = 1")],
+        "analysis.partner = 1: the partner is the particle itself (analysis.particle = 1); name another particle, or a wall",
+    );
+    for (given, shown) in [("4", "4"), ("\"4\"", "\"4\"")] {
+        let text = case_text("SC-wall.toml", &[("[simulation]\n", &format!("[simulation]\ndimension = {given}\n"))]);
+        let err = refused(&text, &[]);
+        assert!(err.starts_with("talus: error: DIR/bad.toml, line ") && err.contains(&format!("dimension = {shown}: must be 2 (a run in the x-y plane) or 3")), "{err}");
+    }
+    // 2 and 3 as numbers, as in the strings the files have written so far
+    accepted(&case_text("SC-wall.toml", &[("[simulation]\n", "[simulation]\ndimension = 3\n")]), &[], &["--steps", "1"]);
+}
+
+#[test]
+fn a_run_that_makes_energy_from_nothing_stops_with_a_checkpoint_naming_the_step_and_the_energy() {
+    // SC-wall with a step of 3 Rayleigh times, forced: the sphere is kicked out of the plate
+    // with 600 times its kinetic energy, and nothing (no gravity, no moving wall) gave it that
+    let text = case_text("SC-wall.toml", &[("timestep = 5e-6", "timestep = 1.6e-3\nforce_timestep = true"), ("duration = 0.004", "duration = 0.5"),
+        ("domain = { lo = [-0.01, -0.01, -0.001], hi = [0.01, 0.01, 0.01] }", "domain = { lo = [-1.0, -1.0, -1.0], hi = [1.0, 1.0, 1.0] }")]);
+    let (ok, err) = run_text(&text, &[], &[]);
+    assert!(!ok, "{err}");
+    assert!(err.contains("run stopped at step 20 ") && err.contains("the kinetic energy grew to 6.3665e-3 J, more than 100 times what the case can give"), "{err}");
+    assert!(err.contains("checkpoint of all ranks written to DIR/out/failure_checkpoint.bin"), "{err}");
+}
+
+#[test]
+fn a_drag_study_too_large_for_the_memory_is_refused_before_it_is_made() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(cases_dir().join("drag/c1.toml")).unwrap().replace("[drag]\n", "[drag]\ncount = 1000000000\n");
+    let case = d.path().join("huge.toml");
+    std::fs::write(&case, text).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_talus")).args(["drag", case.to_str().unwrap(), "--out", d.path().join("o").to_str().unwrap()]).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).replace(&d.path().display().to_string(), "DIR");
+    assert!(!o.status.success());
+    assert!(err.starts_with("talus: error: DIR/huge.toml: drag.count = 1000000000: ") && err.contains("granules need about") && err.contains("bytes of memory"), "{err}");
+}

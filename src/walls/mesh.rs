@@ -321,21 +321,30 @@ impl Mesh {
             im.vertices.iter().map(|v| Vec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
         let triangles: Vec<[u32; 3]> =
             im.faces.iter().map(|f| [f.vertices[0] as u32, f.vertices[1] as u32, f.vertices[2] as u32]).collect();
-        Mesh::new(vertices, triangles).map_err(|e| TalusError::Input(format!("{name}: {e}")))
+        let n = triangles.len();
+        Mesh::new(vertices, triangles).map_err(|e| {
+            // where the facet is in the file: its `facet` line (ASCII), or its bytes (binary)
+            let what = match e.facet {
+                Some(t) => format!(", {}: the facet {}", facet_in_file(&bytes, t, n), e.message),
+                None => format!(": {}", e.message),
+            };
+            TalusError::Input(format!("{name}{what}"))
+        })
     }
 
     /// Build a mesh from vertices and triangles; checks for non-finite vertices and degenerate facets.
-    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh, String> {
+    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh, MeshError> {
+        let bad = |facet: Option<usize>, message: String| Err(MeshError { facet, message });
         for (i, v) in vertices.iter().enumerate() {
             if !(v.x.is_finite() && v.y.is_finite() && v.z.is_finite()) {
-                return Err(format!("vertex {i} is not finite: {v:?}"));
+                return bad(None, format!("vertex {i} is not finite: {v:?}"));
             }
         }
         if triangles.len() > (u32::MAX / 16) as usize {
-            return Err(format!("{} facets: more than the {} a mesh may have", triangles.len(), u32::MAX / 16));
+            return bad(None, format!("{} facets: more than the {} a mesh may have", triangles.len(), u32::MAX / 16));
         }
         if let Some((t, tri)) = triangles.iter().enumerate().find(|(_, tri)| tri.iter().any(|&k| k as usize >= vertices.len())) {
-            return Err(format!("facet {t} names vertex {} of {} vertices", tri.iter().max().copied().unwrap_or(0), vertices.len()));
+            return bad(Some(t), format!("names vertex {} of {} vertices", tri.iter().max().copied().unwrap_or(0), vertices.len()));
         }
         let mut lo = Vec3::repeat(f64::INFINITY);
         let mut hi = Vec3::repeat(f64::NEG_INFINITY);
@@ -350,8 +359,8 @@ impl Mesh {
             let nrm = (b - a).cross(&(c - a));
             let area2 = nrm.norm();
             if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || area2 <= 1e-12 * scale * scale {
-                return Err(format!(
-                    "facet {t} is degenerate (zero area): vertices ({:.6e}, {:.6e}, {:.6e}), ({:.6e}, {:.6e}, {:.6e}), ({:.6e}, {:.6e}, {:.6e})",
+                return bad(Some(t), format!(
+                    "is degenerate (zero area): vertices ({:.6e}, {:.6e}, {:.6e}), ({:.6e}, {:.6e}, {:.6e}), ({:.6e}, {:.6e}, {:.6e})",
                     a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
                 ));
             }
@@ -703,6 +712,44 @@ pub fn push_quad(v: &mut Vec<Vec3>, t: &mut Vec<[u32; 3]>, q: [Vec3; 4]) {
     t.push([idx[0], idx[2], idx[3]]);
 }
 
+/// Why a mesh cannot be made: the facet at fault (its index, from 0), if one
+/// is, and what is wrong ("facet 3 is degenerate ...": `message` is the part
+/// after the facet's name).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshError {
+    pub facet: Option<usize>,
+    pub message: String,
+}
+
+impl std::fmt::Display for MeshError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.facet {
+            Some(t) => write!(f, "facet {t} {}", self.message),
+            None => f.write_str(&self.message),
+        }
+    }
+}
+
+/// Where facet `t` (from 0) of an STL file's `n` is: in an ASCII file the line
+/// of its `facet normal` (from 1), in a binary one its 50 bytes.
+fn facet_in_file(bytes: &[u8], t: usize, n: usize) -> String {
+    if bytes.trim_ascii_start().starts_with(b"solid") {
+        let line = String::from_utf8_lossy(bytes)
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.trim_start().starts_with("facet"))
+            .nth(t)
+            .map(|(i, _)| i + 1);
+        match line {
+            Some(l) => format!("line {l} (facet {} of {n})", t + 1),
+            None => format!("facet {} of {n}", t + 1),
+        }
+    } else {
+        let at = 84 + 50 * t;
+        format!("facet {} of {n} (bytes {at}-{})", t + 1, at + 49)
+    }
+}
+
 /// Checks before `stl_io` reads a file, for messages that name what is wrong:
 /// an ASCII file (starting with `solid`) has finite numbers on its `facet
 /// normal` and `vertex` lines (else the line is named); a binary file is
@@ -1020,7 +1067,7 @@ mod tests {
     #[test]
     fn degenerate_facet_is_refused() {
         let v = vec![Vec3::zeros(), Vec3::x(), Vec3::x() * 2.0];
-        let e = Mesh::new(v, vec![[0, 1, 2]]).unwrap_err();
+        let e = Mesh::new(v, vec![[0, 1, 2]]).unwrap_err().to_string();
         assert!(e.contains("facet 0 is degenerate"), "{e}");
     }
 }
