@@ -10,7 +10,8 @@ reference and compared column by column (compare/case.py);
 `python -m compare regress CASE.toml --golden FILE`: talus against its golden file
 (compare/regress.py); `python -m compare window`: the H1-paper discharge window;
 `python -m compare ab --baseline REV`: this tree's talus against a baseline commit, the
-runs alternated in one session (compare/ab.py).
+runs alternated in one session (compare/ab.py); `python -m compare benchmarks page`: docs/benchmarks.md
+from the recorded results (compare/benchpage.py).
 Runs the engines, computes every figure from their raw time series by one piece of
 code, prints them side by side, writes report.md, figures.json and PNG plots into
 DIR, and exits 1 when a figure is outside its tolerance (tolerances.py).
@@ -136,6 +137,9 @@ def main(argv=None):
     if argv[:1] and argv[0].endswith(".toml"):  # any case: exported, run, compared (compare/case.py)
         from . import case
         return case.main(argv)
+    if argv[:1] == ["benchmarks"]:  # docs/benchmarks.md from measured results: compare/benchpage.py
+        from . import benchpage
+        return benchpage.main(argv[1:])
     if argv[:1] == ["ab"]:  # this tree's talus against a baseline commit: compare/ab.py
         from . import ab
         return ab.main(argv[1:])
