@@ -209,7 +209,10 @@ def build_baseline(rev, cache):
     binary = cache / "bin" / sha / "talus"
     if binary.exists():
         return sha, binary
-    src = cache / "src" / sha
+    # outside this repository: cargo would take a commit whose Cargo.toml has no
+    # [workspace] of its own for a member of this tree's workspace
+    import tempfile
+    src = Path(tempfile.gettempdir()) / "talus-ab-src" / sha
     if src.exists():
         subprocess.run(["git", "worktree", "remove", "--force", str(src)], cwd=ROOT, capture_output=True)
         shutil.rmtree(src, ignore_errors=True)
