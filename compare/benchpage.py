@@ -74,7 +74,10 @@ def throughput_section(r):
     ratios = res.get("talus_over_median", res.get("talus_over", {}))
     ranges = res.get("talus_over_range", {})
     rounds = res.get("rounds", 1)
-    lines = [f"Throughput of {res.get('setup', '?')}: {rounds} round(s), the runs' order alternating; each ratio the "
+    setup = res.get("setup", "?")
+    what = f" (`cases/bench/{setup}.toml`: the linear spring-dashpot bed, LAMMPS `gran/hooke/history` and `granular`)" \
+        if setup.startswith("bed-") else ""
+    lines = [f"Throughput of {setup}{what}: {rounds} round(s), the runs' order alternating; each ratio the "
              "median of the ratios measured within a round.", "",
              "| run | M particle-steps/s (median) |", "|---|---|"]
     lines += [f"| {k} | {v / 1e6:.3f} |" for k, v in rates.items()]
