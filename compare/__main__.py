@@ -5,8 +5,9 @@ TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense 
 bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
 `throughput TARGET --repeat N`: N rounds, the runs' order alternating, each ratio's median
 over the rounds (compare/rounds.py).
-`python -m compare CASE.toml [--engines talus,liggghts]`: any case, exported to the
-reference and compared column by column (compare/case.py);
+`python -m compare CASE.toml [--engines talus,liggghts] [--replicas K] [--perturb KEY=VALUE]`: any
+case, exported to the reference and compared as ensembles of K replicas (compare/ensemble.py;
+with one replica column by column, compare/case.py; `python -m compare CASE.toml --help`);
 `python -m compare regress CASE.toml --golden FILE`: talus against its golden file
 (compare/regress.py); `python -m compare window`: the H1-paper discharge window;
 `python -m compare ab --baseline REV`: this tree's talus against a baseline commit, the
@@ -147,7 +148,8 @@ def main(argv=None):
         from . import regress
         return regress.main(argv[1:])
 
-    ap = argparse.ArgumentParser(prog="python -m compare", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m compare", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("setup", choices=SC_SETUPS + H1_SETUPS + ["throughput"])
     ap.add_argument("target", nargs="?", choices=H1_SETUPS + list(BEDS),
                     help="with `throughput`: H1-small, H1-paper, bed-20k or bed-100k")
