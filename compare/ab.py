@@ -36,6 +36,7 @@ A baseline older than the thread pool runs on one thread whatever --threads says
 (the report says so).
 """
 import argparse
+import functools
 import hashlib
 import json
 import math
@@ -252,7 +253,9 @@ def current_binary(cache, given=None):
     return binary
 
 
+@functools.lru_cache(maxsize=None)
 def supports_threads(binary):
+    """Whether a binary's `talus run` takes --threads (asked once per binary)."""
     p = subprocess.run([binary, "run", "--help"], capture_output=True, text=True)
     return "--threads" in p.stdout
 

@@ -75,8 +75,9 @@ def replica_sets(case_path, case, k, work):
                           "use --replicas 1")
     work.mkdir(parents=True, exist_ok=True)
     cloud = work / "cloud.csv"
-    if not cloud.exists():
-        C.run([TALUS, "cloud", case_path, "--out", cloud], work / "cloud.log")
+    if k == 0:
+        # the case's initial particles as this comparison's --set values make them
+        C.run([TALUS, "cloud", case_path, "--out", cloud, *[a for kv in C.SETS for a in ("--set", kv)]], work / "cloud.log")
     with open(cloud, newline="") as f:
         rows = list(csv.DictReader(f))
     ids = np.array([int(r["id"]) for r in rows])
@@ -100,11 +101,12 @@ def run_replicas(case_path, case, refs, k_reps, out, perturb):
     """Every replica of talus (in each reference's convention, with `perturb`) and of each
     reference, as parallel jobs. Returns {ref: (talus runs, reference runs)}, each run a
     (series, figures) pair, and how the replicas differ."""
-    how = {}
+    # each replica's particle file made once, before the jobs (which read it side by side)
+    made = [replica_sets(case_path, case, k, out / "replicas") for k in range(k_reps)]
 
     def job(ref, k):
         conv = C.CONVENTION[ref]
-        sets, how[k] = replica_sets(case_path, case, k, out / "replicas")
+        sets = made[k][0]
         t_out = out / f"talus-{conv}" / f"replica{k}"
         ts, summary = C.run_talus(case_path, conv, t_out, [*sets, "parallel.threads=1", *perturb])
         ts["timestep_s"] = summary["timestep_s"]
@@ -112,8 +114,6 @@ def run_replicas(case_path, case, refs, k_reps, out, perturb):
         rs = C.run_reference(case_path, ref, r_out, t_out / "inserted.csv", extra=sets)
         return (ts, C.figures_of(ts, case, summary, t_out)), (rs, C.figures_of(rs, case, summary, r_out))
 
-    # the particle file is made once, before the jobs (talus cloud)
-    replica_sets(case_path, case, 0, out / "replicas")
     work = [(ref, k) for ref in refs for k in range(k_reps)]
     with ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1)) as pool:
         done = list(pool.map(lambda rk: job(*rk), work))
@@ -121,7 +121,7 @@ def run_replicas(case_path, case, refs, k_reps, out, perturb):
     for (ref, _), (t, r) in zip(work, done):
         res[ref][0].append(t)
         res[ref][1].append(r)
-    return res, how.get(1, how.get(0, ""))
+    return res, made[-1][1]
 
 
 # ------------------------------------------------------------------ analysis

@@ -1156,9 +1156,9 @@ impl Case {
 
     fn validate_contact(&self) -> Result<(), TalusError> {
         // the law checks its own keys
+        // (cohesion's own keys are checked with the law: `contact::cohesion::Cohesive`)
         crate::contact::check_law(&self.contact).map_err(|e| self.err(&e.key, e.value, &e.why))?;
         if let Some(c) = &self.contact.cohesion {
-            c.check().map_err(|e| self.err(&e.key, e.value, &e.why))?;
             let p = &self.particles;
             if self.simulation.dimension == Dimension::Two || !p.clumps.is_empty() || !p.ellipses.is_empty() {
                 return Err(self.err(

@@ -674,13 +674,8 @@ pub fn run_on(dc: &DragCase, out: &Path, comm: &crate::parallel::comm::Comm) -> 
         return Err(TalusError::Run(errors.join("; ")));
     }
     let beds: Vec<BedResult> = slots.into_iter().map(|b| b.expect("every bed ran on one rank")).collect();
-    let written = write_study(dc, out, &beds, start.elapsed().as_secs_f64(), rank == 0);
-    // rank 0's write error is every rank's
-    let ok = comm.all_gather_values(written.as_ref().err().map(|e| e.to_string()));
-    match ok.into_iter().flatten().next() {
-        Some(e) if rank != 0 => Err(TalusError::Run(e)),
-        _ => written,
-    }
+    // rank 0 writes: its failure is every rank's
+    crate::parallel::agreed(comm, write_study(dc, out, &beds, start.elapsed().as_secs_f64(), rank == 0))
 }
 
 /// The study's outputs from its beds (drag_vs_displacement.csv, snapshots.csv,

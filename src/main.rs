@@ -92,6 +92,9 @@ enum Cmd {
         /// A checkpoint written by a run of the same case: its particles, not the initial ones.
         #[arg(long)]
         restart: Option<PathBuf>,
+        /// Change one value of the case first, as `talus run --set`. Repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
     },
 }
 
@@ -234,8 +237,8 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Cmd::Cloud { case, out, restart } => {
-            let c = Case::load(&case)?;
+        Cmd::Cloud { case, out, restart, sets } => {
+            let c = Case::load_with(&case, &sets)?;
             let mut sim = talus::sim::Simulation::new(c)?;
             if let Some(ck) = &restart {
                 talus::checkpoint::read(&mut sim, ck)?;

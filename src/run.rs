@@ -163,8 +163,7 @@ impl EnergyWatch {
         }
         // each rank's own sum in floating point (no fixed-point conversion per
         // particle: this runs while the run goes), then the ranks' sums exactly
-        let p = sim.particles();
-        let mine: f64 = (0..p.owned()).map(|i| 0.5 * p.mass[i] * p.vel[i].norm_squared() + 0.5 / p.inv_inertia[i] * p.omega[i].norm_squared()).sum();
+        let mine = sim.particles().kinetic_energy_float();
         // (a NaN or an energy past 1e15 J counts as 1e15 J: the fixed-point sum holds 9e18 J)
         let mut v = [crate::fixed::to_fixed(if mine.is_finite() { mine.min(1e15) } else { 1e15 })];
         sim.sum_exact(&mut v);
