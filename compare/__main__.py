@@ -5,7 +5,7 @@ TARGET H1-small, H1-paper (talus, LIGGGHTS, YADE) or bed-20k, bed-100k (a dense 
 bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compare/bed.py).
 `throughput TARGET --repeat N`: N rounds, the runs' order alternating, each ratio's median
 over the rounds (compare/rounds.py).
-`python -m compare CASE.toml [--engines talus,liggghts] [--replicas K] [--perturb KEY=VALUE]`: any
+`python -m compare CASE.toml [--engines talus,liggghts|yade|lammps] [--replicas K] [--perturb KEY=VALUE]`: any
 case, exported to the reference and compared as ensembles of K replicas (compare/ensemble.py;
 with one replica column by column, compare/case.py; `python -m compare CASE.toml --help`);
 `python -m compare regress CASE.toml --golden FILE`: talus against its golden file

@@ -1,4 +1,4 @@
-"""python -m compare CASE.toml [--engines talus,liggghts] [--out DIR] [--set KEY=VALUE] [--replicas K] [--perturb KEY=VALUE] [--reuse]
+"""python -m compare CASE.toml [--engines talus,liggghts|yade|lammps] [--out DIR] [--set KEY=VALUE] [--replicas K] [--perturb KEY=VALUE] [--reuse]
 
 Any case against the reference codes: the case is exported (`talus export --to ENGINE`)
 and run there, talus runs it in that engine's convention, and one piece of code
@@ -43,7 +43,7 @@ from .engines import TALUS, EngineError, check_versions
 from .regress import DEFAULTS
 
 SKIP = {"time_s", "step", "phase"}
-CONVENTION = {"liggghts": "liggghts", "yade": "yade"}
+CONVENTION = {"liggghts": "liggghts", "yade": "yade", "lammps": "lammps"}
 
 
 def read_probes(path):
@@ -90,7 +90,7 @@ def run_talus(case, convention, out, extra=()):
 # The line each exported deck prints as its last act. LIGGGHTS ends a run early and exits
 # with status 0 on SIGINT or SIGTERM ("Forced restart written"), so the exit status alone
 # does not say that the deck ran to its end.
-END_MARKS = {"liggghts": "talus export: done", "yade": "TALUS-EXPORT-DONE"}
+END_MARKS = {"liggghts": "talus export: done", "yade": "TALUS-EXPORT-DONE", "lammps": "talus export: done"}
 
 
 def check_reached_end(engine, log):
@@ -114,6 +114,8 @@ def run_reference(case, engine, out, inserted=None, extra=()):
         run(cmd, out / "export.log")
         if engine == "liggghts":
             run(["liggghts", "-in", "in.talus", "-log", "log.liggghts"], out / "run.log", cwd=out)
+        elif engine == "lammps":
+            run(["lmp", "-in", "in.talus", "-log", "log.lammps"], out / "run.log", cwd=out)
         else:
             run(["yade", "-n", "-j", "1", "-x", "talus.py"], out / "run.log", cwd=out)
         check_reached_end(engine, out / "run.log")
@@ -516,10 +518,10 @@ def main(argv=None):
     refs = [e for e in engines if e != "talus"]
     try:
         for e in engines:
-            if e not in ("talus", "liggghts", "yade"):
-                raise EngineError(f"--engines: unknown engine `{e}` (talus, liggghts, yade)")
+            if e not in ("talus", "liggghts", "yade", "lammps"):
+                raise EngineError(f"--engines: unknown engine `{e}` (talus, liggghts, yade, lammps)")
         if not refs:
-            raise EngineError("--engines: name a reference (liggghts)")
+            raise EngineError("--engines: name a reference (liggghts, yade or lammps)")
         check_versions(["talus"] + refs)
         with open(a.case, "rb") as f:
             case = tomllib.load(f)

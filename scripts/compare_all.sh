@@ -59,6 +59,13 @@ for c in SC-rolling SC-rolling-epsd2 SC-cohesive-sjkr SC-cohesive-sjkr2 squeeze 
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   passed "compare cases/$c.toml (talus,liggghts, exported): within tolerance"
 done
+# LAMMPS 29Sep2021 (pair_style granular) as the third reference: Hertz-Mindlin single collisions, and
+# the laws that pull, DMT and JKR (LIGGGHTS 3.8 has neither; YADE's Mindlin DMT damps and caps its own way)
+for c in SC-wall SC-pair SC-oblique SC-cohesive-dmt SC-cohesive-jkr; do
+  python3 -m compare "cases/$c.toml" --engines talus,lammps --out "$out/case-$c-lammps" > "$out-case-$c-lammps.log" 2>&1 \
+    || { cat "$out-case-$c-lammps.log"; echo "compare cases/$c.toml (lammps): FAILED"; exit 1; }
+  passed "compare cases/$c.toml (talus,lammps, exported): within tolerance"
+done
 # the dumbbell bed: YADE only (LIGGGHTS-PUBLIC 3.8 has no multisphere)
 python3 -m compare cases/drag-d1-bed1.toml --engines talus,yade --out "$out/case-drag-d1-bed1" > "$out-case-drag-d1-bed1.log" 2>&1 \
   || { cat "$out-case-drag-d1-bed1.log"; echo "compare cases/drag-d1-bed1.toml: FAILED"; exit 1; }

@@ -341,6 +341,7 @@ impl ContactSection {
             stiffness: None,
             rolling: None,
             cohesion: None,
+            surface_energy: None,
         }
     }
 }

@@ -166,6 +166,24 @@ impl Axis {
 pub enum ModelName {
     Hooke,
     Hertz,
+    /// Hertz with the Derjaguin-Muller-Toporov adhesion -4 pi gamma R* while
+    /// the bodies overlap (LAMMPS `pair_style granular` `dmt`).
+    Dmt,
+    /// Johnson-Kendall-Roberts: the contact radius from the overlap, the
+    /// force pulls until the pull-off separation beyond contact (LAMMPS `jkr`).
+    Jkr,
+}
+
+impl ModelName {
+    /// The model's name in a case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelName::Hooke => "hooke",
+            ModelName::Hertz => "hertz",
+            ModelName::Dmt => "dmt",
+            ModelName::Jkr => "jkr",
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -199,6 +217,10 @@ pub struct ContactSection {
     /// energy_density = K }` (LIGGGHTS's `cohesion sjkr` / `sjkr2`,
     /// `crate::contact::cohesion`). None: no cohesion.
     pub cohesion: Option<crate::contact::cohesion::Cohesion>,
+    /// dmt and jkr: the surface energy gamma (J/m^2, LAMMPS's `cohesion`
+    /// coefficient; the work of adhesion is 2 gamma): pull-off 4 pi gamma R*
+    /// (DMT), 3 pi gamma R* (JKR).
+    pub surface_energy: Option<f64>,
 }
 
 /// The rolling resistance law.
@@ -225,6 +247,19 @@ pub enum WallContactPoint {
     MidOverlap,
     /// On the wall surface: arm r - delta (YADE `Ig2_Wall_Sphere_ScGeom`).
     Surface,
+    /// At the particle's undeformed surface: arm r (LAMMPS `fix wall/gran`).
+    Radius,
+}
+
+impl WallContactPoint {
+    /// The option's value in a case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            WallContactPoint::MidOverlap => "mid_overlap",
+            WallContactPoint::Surface => "surface",
+            WallContactPoint::Radius => "radius",
+        }
+    }
 }
 
 /// `[particles]`. In the file the particles come from exactly one of `csv`,
@@ -1158,9 +1193,27 @@ impl Case {
         // the law checks its own keys
         // (cohesion's own keys are checked with the law: `contact::cohesion::Cohesive`)
         crate::contact::check_law(&self.contact).map_err(|e| self.err(&e.key, e.value, &e.why))?;
+        let p = &self.particles;
+        let spheres = !(self.simulation.dimension == Dimension::Two || !p.clumps.is_empty() || !p.ellipses.is_empty());
+        let model = self.contact.model;
+        if matches!(model, ModelName::Dmt | ModelName::Jkr) {
+            if !spheres {
+                return Err(self.err(
+                    "contact.model",
+                    format!("\"{}\"", model.name()),
+                    "the dmt and jkr laws act between spheres (3D, no clumps, no ellipses): their contact radius is that of two spheres",
+                ));
+            }
+            if model == ModelName::Jkr && self.contact.rolling == Some(RollingModel::Epsd2) {
+                return Err(self.err(
+                    "contact.rolling",
+                    "\"epsd2\"",
+                    "the jkr law keeps its contact's state in the slot the epsd2 rolling spring would use; use cdt rolling resistance with jkr",
+                ));
+            }
+        }
         if let Some(c) = &self.contact.cohesion {
-            let p = &self.particles;
-            if self.simulation.dimension == Dimension::Two || !p.clumps.is_empty() || !p.ellipses.is_empty() {
+            if !spheres {
                 return Err(self.err(
                     "contact.cohesion.model",
                     format!("\"{}\"", c.model.name()),

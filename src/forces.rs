@@ -333,7 +333,12 @@ impl<L: ContactLaw> PairEval<'_, L> {
             }
             // invariant: a pair whose flag is down has zeros in `out`
             // (written here by the first sweep after a build)
-            let Some(g) = shapes.pair(pr, a, b) else {
+            // a contact that reaches beyond touching (JKR) goes on while it
+            // touched at the last step: its mark is kept in the second history
+            // slot, carried with the shear history over list builds,
+            // checkpoints and ranks (`reaching`)
+            let g = if L::REACHES && ROLL && reaching(&roll[j]) { shapes.pair_within(pr, a, b, law.reach(pair)) } else { shapes.pair(pr, a, b) };
+            let Some(g) = g else {
                 if *hist != Vec3::zeros() {
                     *hist = Vec3::zeros();
                 }
@@ -355,16 +360,34 @@ impl<L: ContactLaw> PairEval<'_, L> {
             let mut no_roll = Vec3::zeros();
             let roll = if ROLL { &mut roll[j] } else { &mut no_roll };
             let c = contact(law, &s.opts, pm, pi, pair, &g, &m, hist, roll, s.dt);
+            if L::REACHES {
+                *roll = TOUCHING;
+            }
             *touch = true;
             *out = PairOut { force: c.force, torque_b: c.torque_j };
             force[a - first] += c.force;
             torque[a - first] += c.torque_i;
             touched[b].store(true, Ordering::Relaxed);
             evaluated += 1;
-            owned += (a < n_own) as usize;
+            // a contact beyond touching (JKR) pulls, but the bodies do not touch:
+            // counted as LAMMPS's contact/atom counts (overlap > 0)
+            owned += (a < n_own && (!L::REACHES || g.overlap > 0.0)) as usize;
         }
         (evaluated, owned)
     }
+}
+
+/// A law that reaches beyond touching (`ContactLaw::REACHES`, JKR) marks
+/// each contact that touches in its second history slot (the rolling
+/// spring's, which such a law does not keep: jkr refuses `epsd2`), so that
+/// the mark is carried wherever history is: over list builds, into
+/// checkpoints, across ranks. Zero: not touching at the last step.
+pub const TOUCHING: Vec3 = Vec3::new(1.0, 0.0, 0.0);
+
+/// Whether a contact's second history slot holds the mark [`TOUCHING`].
+#[inline(always)]
+fn reaching(slot: &Vec3) -> bool {
+    *slot == TOUCHING
 }
 
 /// Walls, per owned particle in candidate order (the particles with wall
@@ -417,7 +440,9 @@ fn wall_forces<L: ContactLaw>(
                 None => pr.pos[i],
             };
             for (k, &(wi, feat)) in wall_feat[lo..hi].iter().enumerate() {
-                hits.push(shapes.wall_hit(pr, i, &at(lo + k), &ws[wi as usize], feat));
+                // a contact that reaches beyond touching goes on while it touched at the last step
+                let reach = if L::REACHES && roll.get(k).is_some_and(reaching) { law.reach(&consts[lo + k]) } else { 0.0 };
+                hits.push(shapes.wall_hit_within(pr, i, &at(lo + k), &ws[wi as usize], feat, reach));
             }
             merge_coincident(&wall_feat[lo..hi], &mut hits, pr.radius[i]);
             carry_history(&wall_feat[lo..hi], &hits, hist, roll);
@@ -433,14 +458,17 @@ fn wall_forces<L: ContactLaw>(
                 };
                 let wi = wall_feat[lo + k].0 as usize;
                 let wall = &ws[wi];
-                contacts += 1;
                 let g = shapes.wall(pr, i, wall, hit, s.opts.wall_arm_overlap);
+                contacts += (!L::REACHES || g.overlap > 0.0) as usize;
                 let pm = table.get(pr.material[i], wall.material);
                 // the force acts on the wall at the same point as on the particle, which
                 // moves with the wall's velocity there (a turning wall's rotation included)
                 let point = g.point(at(lo + k));
                 let m = Motion { v_i: pr.vel[i], w_i: pr.omega[i], v_j: wall.velocity_at(point), w_j: Vec3::zeros() };
                 let c = contact(law, &s.opts, pm, wall_inertia[lo + k], &consts[lo + k], &g, &m, h, r, s.dt);
+                if L::REACHES {
+                    *r = TOUCHING;
+                }
                 f += c.force;
                 t += c.torque_i;
                 add_load(&mut loads[wi], point, &c);

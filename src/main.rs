@@ -63,11 +63,11 @@ enum Cmd {
         #[arg(long, value_name = "N", value_parser = at_least_one)]
         threads: Option<usize>,
     },
-    /// Write a case as an input for a reference code (LIGGGHTS 3.8), with its particle and mesh files,
+    /// Write a case as an input for a reference code (LIGGGHTS 3.8, YADE 2023, LAMMPS 29Sep2021), with its particle and mesh files,
     /// writing the same probes as talus's probes.csv; what the code cannot run is refused naming the key.
     Export {
         case: PathBuf,
-        /// The reference code: liggghts or yade.
+        /// The reference code: liggghts, yade or lammps.
         #[arg(long)]
         to: String,
         /// Output folder (default: out/export/<case name>-<code>).

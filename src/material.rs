@@ -64,7 +64,7 @@ impl Material {
 }
 
 /// Mixed properties of one pair of materials.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct PairMaterial {
     /// Effective Young's modulus Y* = 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2) (Pa); the same in LIGGGHTS and YADE.
     pub y_eff: f64,
@@ -79,8 +79,11 @@ pub struct PairMaterial {
     pub rolling_friction: f64,
     /// Hertz damping prefactors, so that gamma = c sqrt(m*) (R* delta)^(1/4):
     /// [normal, tangential] for the LIGGGHTS mapping (from beta = ln e / sqrt(ln^2 e + pi^2)),
-    /// then for the YADE mapping (from Thornton's damping ratio, the same for en and es).
-    pub hertz_damping: [[f64; 2]; 2],
+    /// then for the YADE mapping (from Thornton's damping ratio, the same for en and es),
+    /// then for LAMMPS's `damping tsuji` (alpha(e) sqrt(4/3 Y*) for both: LAMMPS's
+    /// tangential damping is x_gt = 1 times the normal one), indexed by
+    /// `HertzDamping::index`.
+    pub hertz_damping: [[f64; 2]; 3],
 }
 
 /// How two materials are mixed into one pair (the conventions of the reference codes).
@@ -141,7 +144,9 @@ pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     // S_n = 2 Y* sqrt(R* delta), S_t = 8 G* sqrt(R* delta): sqrt(S m*) = sqrt(2 Y*) sqrt(m*) (R* delta)^(1/4)
     let (sn, st) = ((2.0 * y_eff).sqrt(), (8.0 * g_eff).sqrt());
     let l = -2.0 * (5.0f64 / 6.0).sqrt() * beta;
-    let hertz_damping = [[l * sn, l * st], [2.0 * ratio * sn, 2.0 * ratio * st]];
+    // LAMMPS tsuji: eta = alpha(e) sqrt(m* 4/3 Y* a), a = sqrt(R* delta)
+    let ts = crate::contact::hertz::tsuji_alpha(restitution) * (4.0 / 3.0 * y_eff).sqrt();
+    let hertz_damping = [[l * sn, l * st], [2.0 * ratio * sn, 2.0 * ratio * st], [ts, ts]];
     PairMaterial { y_eff, g_eff, restitution, friction, rolling_friction, hertz_damping }
 }
 

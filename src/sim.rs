@@ -155,11 +155,35 @@ impl Simulation {
             domain,
             rayleigh_time: tr,
         };
-        let skin = s.skin.unwrap_or(0.2 * rmin);
+        // a law that acts beyond touching (jkr) needs a skin that keeps its
+        // contacts in the list to their end: at least twice its longest reach
+        let r_max = case
+            .phases
+            .iter()
+            .flat_map(|ph| ph.inserts.iter())
+            .map(|ins| match &ins.radius {
+                crate::case::RadiusSection::Uniform { max, .. } => *max,
+                crate::case::RadiusSection::Discrete { values, .. } => values.iter().cloned().fold(0.0, f64::max),
+            })
+            .chain(p.radius.iter().copied())
+            .fold(0.0, f64::max);
+        let reach = crate::contact::adhesive::longest_reach(&case.contact, &table, r_max);
+        let skin = match s.skin {
+            Some(skin) if skin < 2.0 * reach => {
+                return Err(TalusError::Input(format!(
+                    "{path}: simulation.skin = {skin}: the jkr law's contacts pull up to {reach:.4e} m beyond touching; the skin must be at least twice that ({:.4e} m) to keep them in the neighbour list",
+                    2.0 * reach
+                )))
+            }
+            Some(skin) => skin,
+            None => (0.2 * rmin).max(2.0 * reach),
+        };
         let mut nl = NeighborList::new(skin);
         nl.period = period;
         nl.skin_rule = crate::neighbor::SkinRule::new(dt);
-        nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2);
+        // the second history slot: the rolling spring's torque (epsd2), or the
+        // mark of a contact that reaches beyond touching (jkr, `forces::TOUCHING`)
+        nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2) || case.contact.model == crate::case::ModelName::Jkr;
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
         check_initial_overlaps(&case, &p, &nl)?;

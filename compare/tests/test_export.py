@@ -103,8 +103,8 @@ def test_what_liggghts_cannot_run_is_refused_naming_the_key(tmp_path):
         assert r.returncode != 0 and key in r.stderr and str(p) in r.stderr, r.stderr
     r = subprocess.run([str(engines.TALUS), "export", str(CASES / "drag" / "c1.toml"), "--to", "liggghts", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert r.returncode != 0
-    r = subprocess.run([str(engines.TALUS), "export", str(CASES / "SC-wall.toml"), "--to", "lammps", "--out", str(tmp_path / "o")], capture_output=True, text=True)
-    assert r.returncode != 0 and "liggghts or yade" in r.stderr
+    r = subprocess.run([str(engines.TALUS), "export", str(CASES / "SC-wall.toml"), "--to", "abaqus", "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert r.returncode != 0 and "liggghts, yade or lammps" in r.stderr
 
 
 def test_the_shipped_drag_bed_is_what_talus_drag_bed_case_writes(tmp_path):
@@ -302,3 +302,41 @@ def test_cohesion_is_exported_to_liggghts_on_pairs_and_walls_with_its_energy_den
         assert f"fix m7 all property/global cohesionEnergyDensity peratomtypepair 1 {k}" in deck, deck
         lines = [ln for ln in deck.splitlines() if ln.startswith("pair_style") or " wall/gran " in ln]
         assert len(lines) == 2 and all(f"cohesion {model}" in ln for ln in lines), lines
+
+
+def test_laws_that_pull_are_refused_by_name_where_a_reference_lacks_them_and_lammps_refuses_what_it_cannot_hold(tmp_path):
+    def export(case, to, text=None):
+        p = CASES / case
+        if text is not None:
+            p = tmp_path / case
+            p.write_text(text)
+        return subprocess.run([str(engines.TALUS), "export", str(p), "--to", to, "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    for case in ["SC-cohesive-dmt.toml", "SC-cohesive-jkr.toml"]:
+        model = case.split("-")[-1].split(".")[0]
+        for to in ["liggghts", "yade"]:
+            r = export(case, to)
+            assert r.returncode != 0 and f'contact.model = "{model}"' in r.stderr and "lammps" in r.stderr, r.stderr
+    jkr = (CASES / "SC-cohesive-jkr.toml").read_text()
+    dmt = (CASES / "SC-cohesive-dmt.toml").read_text()
+    for case, text, key in [
+        # this LAMMPS's JKR wall gives NaN forces
+        ("SC-cohesive-jkr.toml", dmt.replace('model = "dmt"', 'model = "jkr"'), "wall.plate with contact.model"),
+        # the wall moves: the LAMMPS export writes still walls only
+        ("SC-wall.toml", (CASES / "SC-wall.toml").read_text().replace("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.01]"), "wall.plate"),
+        # LIGGGHTS's cohesion has no LAMMPS counterpart
+        ("SC-cohesive-sjkr.toml", None, "contact.cohesion.model"),
+        # LIGGGHTS's derived Hooke stiffness depends on each pair
+        ("SC-pair-hooke.toml", None, "contact.characteristic_velocity"),
+        ("SC-cohesive-jkr.toml", jkr.replace('convention = "lammps"', 'convention = "lammps"\ntangential = "total"'), "contact.tangential"),
+    ]:
+        r = export(case, "lammps", text)
+        assert r.returncode != 0 and key in r.stderr, (case, r.stderr)
+
+
+def test_jkr_collisions_agree_with_lammps_to_1e_6(tmp_path):
+    # (the other LAMMPS comparisons, DMT among them, are in scripts/compare_all.sh)
+    r = subprocess.run([sys.executable, "-m", "compare", str(CASES / "SC-cohesive-jkr.toml"), "--engines", "talus,lammps", "--out", str(tmp_path / "c")],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0 and "30 of 30 checks within tolerance" in r.stdout, r.stdout + r.stderr
+    deck = (tmp_path / "c" / "lammps" / "in.talus").read_text()
+    assert "pair_coeff      1 1 jkr " in deck and "tangential mindlin NULL 1.0" in deck and "damping tsuji" in deck, deck

@@ -117,6 +117,17 @@ pub struct Cohesive<L: ContactLaw> {
 impl<L: ContactLaw> ContactLaw for Cohesive<L> {
     type Pair = L::Pair;
     const USES_INERTIA: bool = L::USES_INERTIA;
+    const REACHES: bool = L::REACHES;
+
+    #[inline(always)]
+    fn reach(&self, pair: &Self::Pair) -> f64 {
+        self.law.reach(pair)
+    }
+
+    #[inline(always)]
+    fn pulloff(&self, pair: &Self::Pair) -> f64 {
+        self.law.pulloff(pair)
+    }
 
     fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError> {
         let cohesion = c.cohesion.ok_or_else(|| KeyError::new("contact.cohesion", "(none)", "a cohesive law needs contact.cohesion"))?;

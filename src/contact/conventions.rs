@@ -1,6 +1,6 @@
 //! The conventions of the reference codes, resolved in one place: every option
 //! the case's `[contact]` section does not give is filled from its
-//! `convention` (`talus`, `liggghts` or `yade`), as ARCHITECTURE.md's table
+//! `convention` (`talus`, `liggghts`, `yade` or `lammps`), as ARCHITECTURE.md's table
 //! "Contact laws" lists them.
 
 use super::hertz::HertzDamping;
@@ -19,7 +19,8 @@ pub struct ContactOptions {
     pub tang: TangentialOptions,
     /// Where a wall contact acts: arm r - f delta from the centre, f = 1/2 at
     /// the middle of the overlap (LIGGGHTS `cr = r - delta/2`), f = 1 on the
-    /// wall surface (YADE's `ScGeom` contact point for `Ig2_Wall_Sphere_ScGeom`).
+    /// wall surface (YADE's `ScGeom` contact point for `Ig2_Wall_Sphere_ScGeom`),
+    /// f = 0 at the particle's undeformed surface (LAMMPS `fix wall/gran`).
     pub wall_arm_overlap: f64,
     /// How two materials mix into a pair.
     pub mixing: Mixing,
@@ -36,35 +37,45 @@ pub struct ContactOptions {
 /// The options of the case's `[contact]` section: each one given, or its
 /// convention's.
 pub fn resolve(c: &ContactSection) -> ContactOptions {
-    use Convention::{Liggghts, Talus, Yade};
+    use Convention::{Lammps, Liggghts, Talus, Yade};
     let conv = c.convention;
+    // dmt and jkr pull: their normal force is never clipped, and friction is
+    // capped by |F_el + 2 F_pulloff| unless the case says otherwise
+    let pulls = matches!(c.model, ModelName::Dmt | ModelName::Jkr);
     let damping = c.damping.unwrap_or(match conv {
         Liggghts | Talus => HertzDamping::Liggghts,
         Yade => HertzDamping::Yade,
+        Lammps => HertzDamping::Tsuji,
     });
     let end = c.end_of_contact.unwrap_or(match conv {
-        Liggghts | Talus => EndOfContact::Tensile,
+        _ if pulls => EndOfContact::Tensile,
+        Liggghts | Talus | Lammps => EndOfContact::Tensile,
         Yade => EndOfContact::Clip,
     });
     let history = c.tangential.unwrap_or(match conv {
         Liggghts | Talus => TangentialHistory::Total,
         Yade => TangentialHistory::Incremental,
+        Lammps => TangentialHistory::Rescaled,
     });
     // YADE: Mindlin increments shear with full radii; ViscEl with the contact point
     let kinematics = c.shear_kinematics.unwrap_or(match (conv, c.model) {
-        (Yade, ModelName::Hertz) => ShearKinematics::FullRadii,
-        _ => ShearKinematics::ContactPoint,
+        (Yade, ModelName::Hertz | ModelName::Dmt | ModelName::Jkr) => ShearKinematics::FullRadii,
+        (Lammps, _) => ShearKinematics::Radii,
+        (Yade | Liggghts | Talus, _) => ShearKinematics::ContactPoint,
     });
     let wall_contact = c.wall_contact_point.unwrap_or(match conv {
         Yade => WallContactPoint::Surface,
         Liggghts | Talus => WallContactPoint::MidOverlap,
+        Lammps => WallContactPoint::Radius,
     });
     let cap = c.friction_cap.unwrap_or(match conv {
+        _ if pulls => FrictionCap::Pulloff,
         Talus => FrictionCap::Elastic,
         Liggghts | Yade => FrictionCap::Total,
+        Lammps => FrictionCap::Pulloff,
     });
     let mixing = match conv {
-        Liggghts | Talus => Mixing::Liggghts,
+        Liggghts | Talus | Lammps => Mixing::Liggghts,
         Yade => Mixing::Yade,
     };
     ContactOptions {
@@ -74,6 +85,7 @@ pub fn resolve(c: &ContactSection) -> ContactOptions {
         wall_arm_overlap: match wall_contact {
             WallContactPoint::MidOverlap => 0.5,
             WallContactPoint::Surface => 1.0,
+            WallContactPoint::Radius => 0.0,
         },
         mixing,
         rolling: c.rolling,

@@ -131,6 +131,7 @@ impl ContactGeom {
                     ShearKinematics::FullRadii => {
                         yade_shear_velocity(self.n, self.overlap, radius_i, radius_j, m.v_i, m.v_j, m.w_i, m.w_j)
                     }
+                    ShearKinematics::Radii => (m.v_i - m.v_j) - (m.w_i * radius_i + m.w_j * radius_j).cross(&self.n),
                 };
                 (v, vs)
             }
@@ -206,6 +207,15 @@ impl Shapes {
     /// Geometry of the contact of particles a (i) and b (j), if they touch.
     #[inline(always)]
     pub fn pair(&self, p: &Particles, a: usize, b: usize) -> Option<ContactGeom> {
+        self.pair_within(p, a, b, 0.0)
+    }
+
+    /// Geometry of the contact of particles a (i) and b (j) if they are
+    /// closer than touching plus `reach` (m, >= 0; the overlap is then down to
+    /// -reach: a JKR contact that goes on beyond touching). Spheres only
+    /// where `reach` > 0 (laws that reach refuse other shapes).
+    #[inline(always)]
+    pub fn pair_within(&self, p: &Particles, a: usize, b: usize, reach: f64) -> Option<ContactGeom> {
         // bounding spheres first (an ellipse's radius is its semi-major axis)
         let mut d = p.pos[a] - p.pos[b];
         if let Some(l) = &self.period {
@@ -222,6 +232,10 @@ impl Shapes {
         }
         let rsum = p.radius[a] + p.radius[b];
         let dist2 = d.norm_squared();
+        if reach > 0.0 {
+            let r = rsum + reach;
+            return (dist2 < r * r).then(|| spheres_apart_by(d, dist2, p.radius[a], p.radius[b]));
+        }
         if dist2 >= rsum * rsum {
             None
         } else if p.ellipse[a] || p.ellipse[b] {
@@ -240,6 +254,17 @@ impl Shapes {
             (true, false) => wall.contact(feature, x, p.radius[i]),
             (true, true) => wall.ellipse_contact(feature, &self.ellipses[i]),
         }
+    }
+
+    /// As [`Shapes::wall_hit`], for a contact that goes on `reach` (m, >= 0)
+    /// beyond touching (its overlap then down to -reach; spheres only where
+    /// `reach` > 0).
+    #[inline(always)]
+    pub fn wall_hit_within(&self, p: &Particles, i: usize, x: &Vec3, wall: &Wall, feature: u32, reach: f64) -> Option<WallHit> {
+        if reach > 0.0 && wall.active && !p.ellipse[i] {
+            return wall.contact(feature, x, p.radius[i] + reach).map(|h| WallHit { overlap: h.overlap - reach, ..h });
+        }
+        self.wall_hit(p, i, x, wall, feature)
     }
 
     /// Geometry of particle i's contact `hit` with `wall`; the force acts

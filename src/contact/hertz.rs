@@ -23,6 +23,48 @@ use serde::{Deserialize, Serialize};
 pub enum HertzDamping {
     Liggghts,
     Yade,
+    /// LAMMPS `damping tsuji`: gamma_n = alpha(e) sqrt(m* 4/3 E* a) with a =
+    /// sqrt(R* delta) (the contact radius), alpha Tsuji's fit ([`tsuji_alpha`]);
+    /// gamma_t = gamma_n (LAMMPS's tangential damping x_gt = 1).
+    Tsuji,
+}
+
+impl HertzDamping {
+    /// The mapping's row of `PairMaterial::hertz_damping`.
+    #[inline(always)]
+    pub fn index(self) -> usize {
+        match self {
+            HertzDamping::Liggghts => 0,
+            HertzDamping::Yade => 1,
+            HertzDamping::Tsuji => 2,
+        }
+    }
+
+    /// The mapping's name in a case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            HertzDamping::Liggghts => "liggghts",
+            HertzDamping::Yade => "yade",
+            HertzDamping::Tsuji => "tsuji",
+        }
+    }
+}
+
+/// Tsuji et al. (1992)'s damping factor for restitution e as LAMMPS 29Sep2021
+/// fits it (`pair_style granular` `damping tsuji`):
+/// alpha = 1.2728 - 4.2783 e + 11.087 e^2 - 22.348 e^3 + 27.467 e^4 - 18.022 e^5 + 4.8218 e^6.
+///
+/// ```
+/// // LAMMPS converts e = 0.5 to 0.3407
+/// assert!((talus::contact::hertz::tsuji_alpha(0.5) - 0.3407).abs() < 1e-4);
+/// ```
+pub fn tsuji_alpha(e: f64) -> f64 {
+    const C: [f64; 7] = [1.2728, -4.2783, 11.087, -22.348, 27.467, -18.022, 4.8218];
+    let mut a = 0.0;
+    for c in C.iter().rev() {
+        a = a * e + c;
+    }
+    a
 }
 
 /// beta = ln e / sqrt(ln^2 e + pi^2) (<= 0), the LIGGGHTS damping parameter.
@@ -61,6 +103,9 @@ impl ContactLaw for Hertz {
                 "contact.stiffness and contact.characteristic_velocity belong to the hooke model",
             ));
         }
+        if let Some(g) = c.surface_energy {
+            return Err(KeyError::new("contact.surface_energy", g, "the hertz law does not pull: a surface energy belongs to the dmt and jkr models"));
+        }
         Ok(Hertz { damping: o.damping })
     }
 
@@ -74,10 +119,7 @@ impl ContactLaw for Hertz {
         let kt = 8.0 * pm.g_eff * sqrt_rd;
         // gamma = 2 zeta sqrt(S m*) with S = 2 Y* sqrt(R* delta) (normal) or 8 G* sqrt(R* delta)
         // (tangential); the constant parts are precomputed per material pair
-        let [cn, ct] = pm.hertz_damping[match self.damping {
-            HertzDamping::Liggghts => 0,
-            HertzDamping::Yade => 1,
-        }];
+        let [cn, ct] = pm.hertz_damping[self.damping.index()];
         let q = pi.sqrt_m_eff * sqrt_rd.sqrt();
         let (gamma_n, gamma_t) = (cn * q, ct * q);
         NormalCoeffs { f_elastic, gamma_n, kt, gamma_t }

@@ -91,6 +91,16 @@ impl ContactLaw for Hooke {
     /// `model = "hooke"` takes exactly one of `stiffness` (explicit) and
     /// `characteristic_velocity` (derived).
     fn from_case(c: &ContactSection, _o: &ContactOptions) -> Result<Self, KeyError> {
+        if let Some(g) = c.surface_energy {
+            return Err(KeyError::new("contact.surface_energy", g, "the hooke law does not pull: a surface energy belongs to the dmt and jkr models"));
+        }
+        if let Some(d) = c.damping {
+            return Err(KeyError::new(
+                "contact.damping",
+                format!("\"{}\"", d.name()),
+                "the hooke law's damping comes from restitution (or contact.stiffness's gamma_n, gamma_t), not from a hertz damping mapping",
+            ));
+        }
         match (c.stiffness, c.characteristic_velocity) {
             (Some(h), None) => {
                 for (k, v) in [("kn", h.kn), ("kt", h.kt), ("gamma_n", h.gamma_n), ("gamma_t", h.gamma_t)] {

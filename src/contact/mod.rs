@@ -17,6 +17,7 @@
 //! The conventions of the reference codes are resolved in one place,
 //! [`conventions::resolve`].
 
+pub mod adhesive;
 pub mod cohesion;
 pub mod conventions;
 pub mod ellipse;
@@ -45,6 +46,8 @@ pub fn dispatch<U: LawUser>(c: &ContactSection, user: U) -> U::Out {
         ModelName::Hooke if c.stiffness.is_some() => with_cohesion::<U, hooke::HookeExplicit>(c, user),
         ModelName::Hooke => with_cohesion::<U, hooke::Hooke>(c, user),
         ModelName::Hertz => with_cohesion::<U, hertz::Hertz>(c, user),
+        ModelName::Dmt => with_cohesion::<U, adhesive::Dmt>(c, user),
+        ModelName::Jkr => with_cohesion::<U, adhesive::Jkr>(c, user),
     }
 }
 
@@ -156,6 +159,27 @@ pub trait ContactLaw: Copy + PartialEq + Send + Sync + 'static {
     /// the [`PairInertia`] it is handed then holds NaN.
     const USES_INERTIA: bool = true;
 
+    /// Whether a contact, once made, goes on beyond zero overlap (JKR): the
+    /// sweeps then ask [`ContactLaw::reach`] for pairs that touched at the
+    /// last step. A law that does not (`false`) ends each contact at zero
+    /// overlap, and its sweeps carry no trace of reach.
+    const REACHES: bool = false;
+
+    /// How far beyond contact (m, >= 0) a contact that touched at the last
+    /// step still acts (JKR's pull-off separation).
+    #[inline(always)]
+    fn reach(&self, _pair: &Self::Pair) -> f64 {
+        0.0
+    }
+
+    /// The pull-off force (N, > 0 for a law that pulls): the friction cap
+    /// [`FrictionCap::Pulloff`] is mu |F_el + 2 F_pulloff|. 0 for a law
+    /// that does not pull (that cap is then the total normal force's).
+    #[inline(always)]
+    fn pulloff(&self, _pair: &Self::Pair) -> f64 {
+        0.0
+    }
+
     /// The law as the case's `[contact]` section and the resolved conventions
     /// give it; a key it needs that is missing, a bad value, or a key of
     /// another law is an error.
@@ -213,6 +237,13 @@ pub enum TangentialHistory {
     /// YADE: the history is the elastic shear force, rotated onto the current
     /// tangent plane and incremented by -k_t v_t dt with the current stiffness.
     Incremental,
+    /// LAMMPS `pair_style granular` (`tangential linear_history` / `mindlin`):
+    /// the total shear displacement, projected onto the current tangent plane
+    /// and rescaled to its former length (where its normal part is more than
+    /// 1e-10 of the cap), then incremented by v_t dt; the force
+    /// -k_t s - gamma_t v_t, dashpot included, is capped, and at the cap the
+    /// displacement is set back to the one that gives it.
+    Rescaled,
 }
 
 /// Which normal force sets the Coulomb cap mu F.
@@ -229,6 +260,11 @@ pub enum FrictionCap {
     /// d delta/dt is an exact differential), so in gross sliding the tangential
     /// impulse is exactly mu times the normal impulse: Coulomb's law for the impact.
     Elastic,
+    /// For a law that pulls (dmt, jkr), mu |F_el + 2 F_pulloff|, F_el the
+    /// elastic normal force with its adhesion, F_pulloff the law's pull-off
+    /// force (Thornton and Yin 1991; LAMMPS `pair_style granular` for jkr and
+    /// dmt); for any other law as `total`.
+    Pulloff,
 }
 
 /// Which relative velocity drives the shear spring.
@@ -243,6 +279,43 @@ pub enum ShearKinematics {
     /// translational part is scaled by alpha = (r_i + r_j) / (r_i + r_j - delta)
     /// (1 at a wall).
     FullRadii,
+    /// The relative velocity at the contact with the bodies' full radii as
+    /// spin arms and no other factor (LAMMPS `pair_style granular` and `fix
+    /// wall/gran granular`).
+    Radii,
+}
+
+impl TangentialHistory {
+    /// The option's value in a case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            TangentialHistory::Total => "total",
+            TangentialHistory::Incremental => "incremental",
+            TangentialHistory::Rescaled => "rescaled",
+        }
+    }
+}
+
+impl FrictionCap {
+    /// The option's value in a case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            FrictionCap::Total => "total",
+            FrictionCap::Elastic => "elastic",
+            FrictionCap::Pulloff => "pulloff",
+        }
+    }
+}
+
+impl ShearKinematics {
+    /// The option's value in a case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShearKinematics::ContactPoint => "contact_point",
+            ShearKinematics::FullRadii => "full_radii",
+            ShearKinematics::Radii => "radii",
+        }
+    }
 }
 
 /// Options of the tangential stage, shared by every law.
@@ -301,6 +374,10 @@ pub fn evaluate<L: ContactLaw>(
     let f_cap = match o.tang.cap {
         FrictionCap::Total => f_n.abs(),
         FrictionCap::Elastic => c.f_elastic,
+        FrictionCap::Pulloff => match law.pulloff(pair) {
+            p if p > 0.0 => (c.f_elastic + 2.0 * p).abs(),
+            _ => f_n.abs(),
+        },
     };
     let f_t = tangential(c, o.tang.history, pm.friction * f_cap, g.n, v_t, hist, dt);
     let force = g.n * f_n + f_t;
@@ -423,6 +500,37 @@ fn tangential(
                 f_el - c.gamma_t * v_t
             }
         }
+        TangentialHistory::Rescaled => {
+            // LAMMPS: the stored displacement is turned into the tangent plane
+            // (projected, then rescaled to its length) only where its normal
+            // part would matter: |s.n| k_t > 1e-10 mu F
+            let mut s = *hist;
+            let sn = n.dot(&s);
+            if sn.abs() * c.kt > 1e-10 * cap {
+                let m = s.norm();
+                s -= n * sn;
+                let p = s.norm();
+                s *= if p > 0.0 { m / p } else { 0.0 };
+            }
+            s += v_t * dt;
+            // the cap on the whole force, dashpot included; at the cap the
+            // displacement is the one that gives it
+            let f = -c.kt * s - c.gamma_t * v_t;
+            let f2 = f.norm_squared();
+            if f2 > cap * cap {
+                if s != Vec3::zeros() {
+                    let f = f * (cap / f2.sqrt());
+                    *hist = -(f + c.gamma_t * v_t) / c.kt;
+                    f
+                } else {
+                    *hist = s;
+                    Vec3::zeros()
+                }
+            } else {
+                *hist = s;
+                f
+            }
+        }
         TangentialHistory::Incremental => {
             let f_el = h_t - c.kt * dt * v_t;
             let fe2 = f_el.norm_squared();
@@ -458,6 +566,7 @@ pub enum Convention {
     Talus,
     Liggghts,
     Yade,
+    Lammps,
 }
 
 #[cfg(test)]

@@ -132,7 +132,16 @@ fn conventions_fill_every_option_not_given() {
         stiffness: None,
         rolling: None,
         cohesion: None,
+        surface_energy: None,
     };
+    // LAMMPS: tsuji damping, rescaled history, full radii as spin arms, the
+    // cap |F_el + 2 F_pulloff| (the total force for a law that does not pull),
+    // the wall's torque arm the radius; dmt and jkr pull in every convention
+    let lm = conventions::resolve(&section(Convention::Lammps, ModelName::Hertz));
+    assert_eq!((lm.damping, lm.end, lm.tang.history), (HertzDamping::Tsuji, EndOfContact::Tensile, TangentialHistory::Rescaled));
+    assert_eq!((lm.tang.cap, lm.tang.kinematics, lm.wall_arm_overlap, lm.mixing), (FrictionCap::Pulloff, ShearKinematics::Radii, 0.0, Mixing::Liggghts));
+    let yd = conventions::resolve(&section(Convention::Yade, ModelName::Dmt));
+    assert_eq!((yd.end, yd.tang.cap), (EndOfContact::Tensile, FrictionCap::Pulloff));
     let t = conventions::resolve(&section(Convention::Talus, ModelName::Hertz));
     assert_eq!((t.damping, t.end, t.tang.history), (HertzDamping::Liggghts, EndOfContact::Tensile, TangentialHistory::Total));
     assert_eq!((t.tang.cap, t.tang.kinematics, t.wall_arm_overlap, t.mixing), (FrictionCap::Elastic, ShearKinematics::ContactPoint, 0.5, Mixing::Liggghts));

@@ -147,8 +147,37 @@ fn io(path: &Path, e: std::io::Error) -> TalusError {
     TalusError::io(format!("writing {}", path.display()), e)
 }
 
-/// Refuse what LIGGGHTS 3.8 cannot run, naming the key.
-fn check(case: &Case) -> Result<(), TalusError> {
+/// The LIGGGHTS contact model a case's law is written as.
+#[derive(Clone, Copy, Debug)]
+enum Law {
+    /// `model hertz`.
+    Hertz,
+    /// `model hooke/stiffness` with these absolute coefficients.
+    HookeStiffness(crate::contact::hooke::HookeExplicit),
+    /// `model hooke` at this characteristic velocity (m/s).
+    HookeDerived(f64),
+}
+
+/// The case's normal law as LIGGGHTS writes it, or refused by name (every
+/// model decided here: a new one does not compile until it is).
+fn law(case: &Case) -> Result<Law, TalusError> {
+    let c = &case.contact;
+    match c.model {
+        ModelName::Hertz => Ok(Law::Hertz),
+        ModelName::Hooke => match (c.stiffness, c.characteristic_velocity) {
+            (Some(k), _) => Ok(Law::HookeStiffness(k)),
+            (None, v) => Ok(Law::HookeDerived(v.unwrap_or(1.0))),
+        },
+        m @ (ModelName::Dmt | ModelName::Jkr) => Err(refuse(
+            case,
+            &format!("contact.model = \"{}\"", m.name()),
+            "LIGGGHTS 3.8 has no DMT or JKR normal model; its cohesion is `cohesion sjkr` / `sjkr2` (contact.cohesion with model hertz or hooke); compare dmt and jkr against LAMMPS (--engines talus,lammps)",
+        )),
+    }
+}
+
+/// Refuse what LIGGGHTS 3.8 cannot run, naming the key; the law as it is written.
+fn check(case: &Case) -> Result<Law, TalusError> {
     let s = &case.simulation;
     if s.integrator == IntegratorKind::Gear {
         return Err(refuse(case, "simulation.integrator = \"gear\"", "LIGGGHTS 3.8 integrates spheres with velocity Verlet (nve/sphere) only"));
@@ -159,21 +188,47 @@ fn check(case: &Case) -> Result<(), TalusError> {
     if !case.particles.clumps.is_empty() {
         return Err(refuse(case, "particles.clumps", "the LIGGGHTS exporter writes no clumps (multisphere is not in LIGGGHTS-PUBLIC 3.8)"));
     }
+    let law = law(case)?;
     let c = &case.contact;
-    if c.damping == Some(HertzDamping::Yade) {
-        return Err(refuse(case, "contact.damping = \"yade\"", "LIGGGHTS maps restitution to damping its own way (gamma_n = 2 sqrt(5/6) beta sqrt(S_n m*))"));
+    // each option LIGGGHTS cannot hold, by name (every value decided: a new
+    // one does not compile until it is)
+    match c.damping {
+        None | Some(HertzDamping::Liggghts) => {}
+        Some(d @ (HertzDamping::Yade | HertzDamping::Tsuji)) => {
+            return Err(refuse(
+                case,
+                &format!("contact.damping = \"{}\"", d.name()),
+                "LIGGGHTS maps restitution to damping its own way (gamma_n = 2 sqrt(5/6) beta sqrt(S_n m*))",
+            ))
+        }
     }
-    if c.tangential == Some(TangentialHistory::Incremental) {
-        return Err(refuse(case, "contact.tangential = \"incremental\"", "LIGGGHTS `tangential history` keeps the total shear displacement"));
+    match c.tangential {
+        None | Some(TangentialHistory::Total) => {}
+        Some(t @ (TangentialHistory::Incremental | TangentialHistory::Rescaled)) => {
+            return Err(refuse(
+                case,
+                &format!("contact.tangential = \"{}\"", t.name()),
+                "LIGGGHTS `tangential history` keeps the total shear displacement, projected without rescaling",
+            ))
+        }
     }
-    if c.shear_kinematics == Some(ShearKinematics::FullRadii) {
-        return Err(refuse(case, "contact.shear_kinematics = \"full_radii\"", "LIGGGHTS drives the shear spring by the contact point's velocity"));
+    match c.shear_kinematics {
+        None | Some(ShearKinematics::ContactPoint) => {}
+        Some(k @ (ShearKinematics::FullRadii | ShearKinematics::Radii)) => {
+            return Err(refuse(case, &format!("contact.shear_kinematics = \"{}\"", k.name()), "LIGGGHTS drives the shear spring by the contact point's velocity"));
+        }
     }
-    if c.friction_cap == Some(FrictionCap::Elastic) {
-        return Err(refuse(case, "contact.friction_cap = \"elastic\"", "LIGGGHTS caps friction with the total normal force"));
+    match c.friction_cap {
+        None | Some(FrictionCap::Total) => {}
+        Some(f @ (FrictionCap::Elastic | FrictionCap::Pulloff)) => {
+            return Err(refuse(case, &format!("contact.friction_cap = \"{}\"", f.name()), "LIGGGHTS caps friction with the total normal force"))
+        }
     }
-    if c.wall_contact_point == Some(crate::case::WallContactPoint::Surface) {
-        return Err(refuse(case, "contact.wall_contact_point = \"surface\"", "LIGGGHTS acts at the middle of a wall overlap"));
+    match c.wall_contact_point {
+        None | Some(crate::case::WallContactPoint::MidOverlap) => {}
+        Some(p @ (crate::case::WallContactPoint::Surface | crate::case::WallContactPoint::Radius)) => {
+            return Err(refuse(case, &format!("contact.wall_contact_point = \"{}\"", p.name()), "LIGGGHTS acts at the middle of a wall overlap"));
+        }
     }
     if let Some(w) = case.walls.iter().find(|w| w.servo.is_some()) {
         return Err(refuse(
@@ -194,7 +249,7 @@ fn check(case: &Case) -> Result<(), TalusError> {
             _ => {}
         }
     }
-    Ok(())
+    Ok(law)
 }
 
 /// A plane as a mesh inside the domain (LIGGGHTS stops on a mesh node outside
@@ -253,7 +308,7 @@ fn plane_mesh(point: Vec3, n: Vec3, lo: Vec3, hi: Vec3) -> Mesh {
 }
 
 pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Result<Exported, TalusError> {
-    check(case)?;
+    let law = check(case)?;
     let sim = Simulation::new(case.clone())?;
     let dt = sim.dt();
     let skin = sim.state().nl.skin;
@@ -475,12 +530,10 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
     }
 
     // the contact model words, shared by the pair style and the wall fixes
-    let (model, settings) = match case.contact.model {
-        ModelName::Hertz => ("model hertz tangential history", String::new()),
-        ModelName::Hooke => match case.contact.stiffness {
-            Some(_) => ("model hooke/stiffness tangential history", "absolute_damping on".to_string()),
-            None => ("model hooke tangential history", String::new()),
-        },
+    let (model, settings) = match law {
+        Law::Hertz => ("model hertz tangential history", String::new()),
+        Law::HookeStiffness(_) => ("model hooke/stiffness tangential history", "absolute_damping on".to_string()),
+        Law::HookeDerived(_) => ("model hooke tangential history", String::new()),
     };
     let settings = if opts.end == EndOfContact::Clip { format!("{settings} limitForce on").trim().to_string() } else { settings };
     // rolling resistance: LIGGGHTS's own cdt or epsd2 model, the coefficient per type pair (mean, as talus mixes it)
@@ -568,18 +621,17 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
         notes.push("rolling resistance: a primitive wall's torque column is the moment of the contact forces only (talus's also takes the rolling torques' reaction)".into());
         let _ = writeln!(w, "fix m6 all property/global coefficientRollingFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).rolling_friction));
     }
-    match (case.contact.model, case.contact.stiffness) {
-        (ModelName::Hooke, Some(k)) => {
+    match law {
+        Law::HookeStiffness(k) => {
             let _ = writeln!(w, "fix k1 all property/global kn peratomtypepair {nmat} {}", pair(&|_, _| k.kn));
             let _ = writeln!(w, "fix k2 all property/global kt peratomtypepair {nmat} {}", pair(&|_, _| k.kt));
             let _ = writeln!(w, "fix k3 all property/global gamman_abs peratomtypepair {nmat} {}", pair(&|_, _| k.gamma_n));
             let _ = writeln!(w, "fix k4 all property/global gammat_abs peratomtypepair {nmat} {}", pair(&|_, _| k.gamma_t));
         }
-        (ModelName::Hooke, None) => {
-            let v = case.contact.characteristic_velocity.unwrap_or(1.0);
+        Law::HookeDerived(v) => {
             let _ = writeln!(w, "fix m5 all property/global characteristicVelocity scalar {}", g(v));
         }
-        _ => {}
+        Law::Hertz => {}
     }
     let _ = writeln!(w, "pair_style      gran {model} {settings}\npair_coeff      * *\ntimestep        {}", g(dt));
     let gv = Vec3::from(case.simulation.gravity);
@@ -770,25 +822,7 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
             let _ = write!(thermo, " v_{}_ta", x.name);
         }
     }
-    if let Some(z) = case.output.mass_below_z {
-        let _ = writeln!(w, "variable mb_atom atom mass*(z<{})\ncompute mb_sum grains reduce sum v_mb_atom\nvariable mb equal c_mb_sum", g(z));
-        header.push_str(",mass_below_kg");
-        row.push_str(",${mb}");
-        thermo.push_str(" v_mb");
-    }
-    if case.output.momentum {
-        for c in ["x", "y", "z"] {
-            let _ = writeln!(w, "variable p{c}_atom atom mass*v{c}");
-        }
-        let _ = writeln!(w, "compute mom grains reduce sum v_px_atom v_py_atom v_pz_atom");
-        for (k, c) in ["x", "y", "z"].iter().enumerate() {
-            let _ = writeln!(w, "variable mom_{c} equal c_mom[{}]", k + 1);
-            let _ = write!(header, ",momentum_{c}_kg_m_s");
-            let _ = write!(row, ",${{mom_{c}}}");
-            // in the thermo output, so the compute is current at the end of every run
-            let _ = write!(thermo, " v_mom_{c}");
-        }
-    }
+    super::lammps_family_columns(case, w, &mut header, &mut row, &mut thermo);
     for &id in &case.output.track {
         let l = id + shift;
         for (q, v) in [
@@ -800,14 +834,7 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
             let _ = write!(row, ",${{p{id}_{q}}}");
         }
     }
-    let every = ((case.output.interval / dt).round() as u64).max(1);
-    if (every as f64 * dt - case.output.interval).abs() > 1e-9 * case.output.interval {
-        notes.push(format!(
-            "probes every {every} steps ({:.9e} s; talus writes a row at each step that crosses a multiple of {} s)",
-            every as f64 * dt,
-            case.output.interval
-        ));
-    }
+    let every = super::probe_every(case, dt, &mut notes);
     let first = case.phases.first().map(|p| p.name.as_str()).unwrap_or("end");
     let _ = writeln!(w, "variable phase string {first}");
     let _ = writeln!(w, "thermo_style    custom {thermo}\nthermo          {every}\nthermo_modify   lost error norm no");

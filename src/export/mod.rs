@@ -1,4 +1,4 @@
-//! `talus export CASE --to liggghts|yade --out DIR`: a case written as a
+//! `talus export CASE --to liggghts|yade|lammps --out DIR`: a case written as a
 //! self-contained input for a reference code, in that code's conventions,
 //! writing the same probes as talus's `probes.csv` (same columns, units and
 //! interval). What the code cannot run is refused with the key and the reason.
@@ -8,6 +8,7 @@
 //! and skin, the meshes as loaded. So an exported deck runs the very particles
 //! talus starts from.
 
+pub mod lammps;
 pub mod liggghts;
 pub mod yade;
 
@@ -20,6 +21,7 @@ use std::path::{Path, PathBuf};
 pub enum Target {
     Liggghts,
     Yade,
+    Lammps,
 }
 
 impl Target {
@@ -27,7 +29,8 @@ impl Target {
         match s {
             "liggghts" => Ok(Target::Liggghts),
             "yade" => Ok(Target::Yade),
-            _ => Err(TalusError::Input(format!("--to {s}: must be liggghts or yade"))),
+            "lammps" => Ok(Target::Lammps),
+            _ => Err(TalusError::Input(format!("--to {s}: must be liggghts, yade or lammps"))),
         }
     }
 }
@@ -57,6 +60,8 @@ pub fn export_with(case: &Case, target: Target, out: &Path, inserted: Option<&Pa
     match target {
         Target::Liggghts => liggghts::export(case, out, &rows),
         Target::Yade => yade::export(case, out, &rows),
+        Target::Lammps if rows.is_empty() => lammps::export(case, out),
+        Target::Lammps => Err(refuse(case, "--inserted", "the LAMMPS export inserts no particles")),
     }
 }
 
@@ -214,4 +219,44 @@ mod tests {
         assert_eq!(s, 500);
         assert!(s as f64 * dt >= 0.05 - 0.5 * dt && ((s - 1) as f64 * dt) < 0.05 - 0.5 * dt);
     }
+}
+
+/// The probe columns a LAMMPS-family deck (LIGGGHTS, LAMMPS) writes alike:
+/// the mass below `output.mass_below_z` and the momentum, as variables with
+/// their `probes.csv` header, `fix print` row and thermo terms (the computes
+/// in the thermo output, so they are current at the end of every run).
+pub(crate) fn lammps_family_columns(case: &Case, w: &mut String, header: &mut String, row: &mut String, thermo: &mut String) {
+    use std::fmt::Write as _;
+    if let Some(z) = case.output.mass_below_z {
+        let _ = writeln!(w, "variable mb_atom atom mass*(z<{z:.16e})\ncompute mb_sum grains reduce sum v_mb_atom\nvariable mb equal c_mb_sum");
+        header.push_str(",mass_below_kg");
+        row.push_str(",${mb}");
+        thermo.push_str(" v_mb");
+    }
+    if case.output.momentum {
+        for c in ["x", "y", "z"] {
+            let _ = writeln!(w, "variable p{c}_atom atom mass*v{c}");
+        }
+        let _ = writeln!(w, "compute mom grains reduce sum v_px_atom v_py_atom v_pz_atom");
+        for (k, c) in ["x", "y", "z"].iter().enumerate() {
+            let _ = writeln!(w, "variable mom_{c} equal c_mom[{}]", k + 1);
+            let _ = write!(header, ",momentum_{c}_kg_m_s");
+            let _ = write!(row, ",${{mom_{c}}}");
+            let _ = write!(thermo, " v_mom_{c}");
+        }
+    }
+}
+
+/// Steps between probe rows in a deck: the case's interval rounded to whole
+/// steps, with a note where that is not the interval itself.
+pub(crate) fn probe_every(case: &Case, dt: f64, notes: &mut Vec<String>) -> u64 {
+    let every = ((case.output.interval / dt).round() as u64).max(1);
+    if (every as f64 * dt - case.output.interval).abs() > 1e-9 * case.output.interval {
+        notes.push(format!(
+            "probes every {every} steps ({:.9e} s; talus writes a row at each step that crosses a multiple of {} s)",
+            every as f64 * dt,
+            case.output.interval
+        ));
+    }
+    every
 }

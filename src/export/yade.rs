@@ -60,27 +60,58 @@ fn check(case: &Case) -> Result<(), TalusError> {
         }
     }
     let c = &case.contact;
-    let hertz = c.model == ModelName::Hertz;
-    if hertz && c.damping == Some(HertzDamping::Liggghts) {
-        return Err(refuse(case, "contact.damping = \"liggghts\"", "the script maps restitution as YADE's Mindlin does (Thornton's fit); LIGGGHTS's damping ratio is not exported to YADE"));
+    // every model and option decided here, by name (a new one does not
+    // compile until it is)
+    let hertz = match c.model {
+        ModelName::Hertz => true,
+        ModelName::Hooke => false,
+        m @ (ModelName::Dmt | ModelName::Jkr) => {
+            return Err(refuse(
+                case,
+                &format!("contact.model = \"{}\"", m.name()),
+                "the YADE export writes Hertz-Mindlin or ViscEl without adhesion (YADE's Mindlin DMT caps friction and damps the pull its own way); compare dmt and jkr against LAMMPS (--engines talus,lammps)",
+            ))
+        }
+    };
+    match (hertz, c.damping) {
+        (_, None) | (true, Some(HertzDamping::Yade)) => {}
+        (false, Some(d)) => {
+            return Err(refuse(case, &format!("contact.damping = \"{}\"", d.name()), "the hooke law takes no hertz damping mapping"));
+        }
+        (true, Some(d @ (HertzDamping::Liggghts | HertzDamping::Tsuji))) => {
+            return Err(refuse(
+                case,
+                &format!("contact.damping = \"{}\"", d.name()),
+                "the script maps restitution as YADE's Mindlin does (Thornton's fit); another damping mapping is not exported to YADE",
+            ));
+        }
     }
-    if c.end_of_contact == Some(EndOfContact::Tensile) {
-        return Err(refuse(case, "contact.end_of_contact = \"tensile\"", "YADE's laws clip the normal force at zero"));
+    match c.end_of_contact {
+        None | Some(EndOfContact::Clip) => {}
+        Some(EndOfContact::Tensile) => {
+            return Err(refuse(case, "contact.end_of_contact = \"tensile\"", "YADE's laws clip the normal force at zero"));
+        }
     }
-    if c.tangential == Some(TangentialHistory::Total) {
-        return Err(refuse(case, "contact.tangential = \"total\"", "YADE's laws increment the shear force"));
+    match c.tangential {
+        None | Some(TangentialHistory::Incremental) => {}
+        Some(t @ (TangentialHistory::Total | TangentialHistory::Rescaled)) => {
+            return Err(refuse(case, &format!("contact.tangential = \"{}\"", t.name()), "YADE's laws increment the shear force"));
+        }
     }
-    if c.friction_cap == Some(FrictionCap::Elastic) {
-        return Err(refuse(case, "contact.friction_cap = \"elastic\"", "YADE caps friction with the total normal force"));
+    match c.friction_cap {
+        None | Some(FrictionCap::Total) => {}
+        Some(f @ (FrictionCap::Elastic | FrictionCap::Pulloff)) => {
+            return Err(refuse(case, &format!("contact.friction_cap = \"{}\"", f.name()), "YADE caps friction with the total normal force"));
+        }
     }
     match (hertz, c.shear_kinematics) {
-        (true, Some(ShearKinematics::ContactPoint)) => {
-            return Err(refuse(case, "contact.shear_kinematics = \"contact_point\"", "YADE's Mindlin drives the shear spring with the full radii (ScGeom's shearIncrement)"));
+        (_, None) | (true, Some(ShearKinematics::FullRadii)) | (false, Some(ShearKinematics::ContactPoint)) => {}
+        (true, Some(k @ (ShearKinematics::ContactPoint | ShearKinematics::Radii))) => {
+            return Err(refuse(case, &format!("contact.shear_kinematics = \"{}\"", k.name()), "YADE's Mindlin drives the shear spring with the full radii and its alpha factor (ScGeom's shearIncrement)"));
         }
-        (false, Some(ShearKinematics::FullRadii)) => {
-            return Err(refuse(case, "contact.shear_kinematics = \"full_radii\"", "YADE's ViscEl law drives the shear spring by the contact point's velocity"));
+        (false, Some(k @ (ShearKinematics::FullRadii | ShearKinematics::Radii))) => {
+            return Err(refuse(case, &format!("contact.shear_kinematics = \"{}\"", k.name()), "YADE's ViscEl law drives the shear spring by the contact point's velocity"));
         }
-        _ => {}
     }
     if let Some(coh) = &c.cohesion {
         return Err(refuse(
@@ -463,8 +494,12 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
             json!({"name": ph.name, "duration": ph.duration, "frac": ph.kinetic_energy_fraction, "settle": ph.settle_extra, "remove": remove})
         })
         .collect();
-    if case.contact.wall_contact_point == Some(WallContactPoint::MidOverlap) {
-        notes.push("contact.wall_contact_point = \"mid_overlap\": YADE's flat walls act on the surface; the probes' torques use the middle of the overlap as talus does".into());
+    match case.contact.wall_contact_point {
+        None | Some(WallContactPoint::Surface) => {}
+        Some(p @ (WallContactPoint::MidOverlap | WallContactPoint::Radius)) => notes.push(format!(
+            "contact.wall_contact_point = \"{}\": YADE's flat walls act on the surface; the probes' torques use the point talus uses",
+            p.name()
+        )),
     }
     let g = case.simulation.gravity;
     let periodic = [0, 1, 2].map(|k| case.simulation.domain.is_periodic(k));
