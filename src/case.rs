@@ -1204,7 +1204,7 @@ impl Case {
                     "the dmt and jkr laws act between spheres (3D, no clumps, no ellipses): their contact radius is that of two spheres",
                 ));
             }
-            if model == ModelName::Jkr && self.contact.rolling == Some(RollingModel::Epsd2) {
+            if crate::contact::law_traits(&self.contact).1 && self.contact.rolling == Some(RollingModel::Epsd2) {
                 return Err(self.err(
                     "contact.rolling",
                     "\"epsd2\"",

@@ -167,7 +167,7 @@ impl Simulation {
             })
             .chain(p.radius.iter().copied())
             .fold(0.0, f64::max);
-        let reach = crate::contact::adhesive::longest_reach(&case.contact, &table, r_max);
+        let reach = crate::contact::longest_reach(&case.contact, &table, r_max);
         let skin = match s.skin {
             Some(skin) if skin < 2.0 * reach => {
                 return Err(TalusError::Input(format!(
@@ -183,7 +183,7 @@ impl Simulation {
         nl.skin_rule = crate::neighbor::SkinRule::new(dt);
         // the second history slot: the rolling spring's torque (epsd2), or the
         // mark of a contact that reaches beyond touching (jkr, `forces::TOUCHING`)
-        nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2) || case.contact.model == crate::case::ModelName::Jkr;
+        nl.rolling_history = case.contact.rolling == Some(crate::case::RollingModel::Epsd2) || crate::contact::law_traits(&case.contact).1;
         nl.displacement(&p, &domain).map_err(|e| TalusError::Input(format!("{path}: initial state: {e}")))?;
         nl.build(&p, &walls);
         check_initial_overlaps(&case, &p, &nl)?;

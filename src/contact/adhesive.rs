@@ -25,7 +25,7 @@
 //! with the contact radius a in place of sqrt(R* delta).
 
 use super::{ContactLaw, ContactOptions, KeyError, NormalCoeffs, PairInertia};
-use crate::case::{ContactSection, ModelName};
+use crate::case::ContactSection;
 use crate::material::PairMaterial;
 use std::f64::consts::PI;
 
@@ -86,6 +86,8 @@ pub struct Dmt {
 impl ContactLaw for Dmt {
     /// The pull-off force 4 pi gamma R* (N).
     type Pair = f64;
+
+    const PULLS: bool = true;
 
     fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError> {
         Ok(Dmt { surface_energy: surface_energy(c, "dmt")?, damping: o.damping.index() })
@@ -179,6 +181,7 @@ impl ContactLaw for Jkr {
     type Pair = JkrPair;
 
     const REACHES: bool = true;
+    const PULLS: bool = true;
 
     fn from_case(c: &ContactSection, o: &ContactOptions) -> Result<Self, KeyError> {
         Ok(Jkr { surface_energy: surface_energy(c, "jkr")?, damping: o.damping.index() })
@@ -206,25 +209,6 @@ impl ContactLaw for Jkr {
     fn pulloff(&self, k: &JkrPair) -> f64 {
         k.pulloff
     }
-}
-
-/// The longest reach beyond touching (m) of the case's law over every pair
-/// of materials, for bodies of radius at most `r_max` (a wall counts as
-/// R* = r, the largest R* there is; the reach grows as R*^(1/3)); 0 for a
-/// law whose contacts end at touching.
-pub fn longest_reach(c: &ContactSection, table: &crate::material::PairTable, r_max: f64) -> f64 {
-    let (ModelName::Jkr, Some(g)) = (c.model, c.surface_energy) else { return 0.0 };
-    if !(r_max > 0.0) {
-        return 0.0;
-    }
-    let law = Jkr { surface_energy: g, damping: 0 };
-    let mut reach: f64 = 0.0;
-    for a in 0..table.len() {
-        for b in 0..table.len() {
-            reach = reach.max(law.constants(table.get(a as u16, b as u16).y_eff, r_max).reach);
-        }
-    }
-    reach
 }
 
 #[cfg(test)]

@@ -118,6 +118,7 @@ impl<L: ContactLaw> ContactLaw for Cohesive<L> {
     type Pair = L::Pair;
     const USES_INERTIA: bool = L::USES_INERTIA;
     const REACHES: bool = L::REACHES;
+    const PULLS: bool = L::PULLS;
 
     #[inline(always)]
     fn reach(&self, pair: &Self::Pair) -> f64 {

@@ -41,7 +41,7 @@ pub fn resolve(c: &ContactSection) -> ContactOptions {
     let conv = c.convention;
     // dmt and jkr pull: their normal force is never clipped, and friction is
     // capped by |F_el + 2 F_pulloff| unless the case says otherwise
-    let pulls = matches!(c.model, ModelName::Dmt | ModelName::Jkr);
+    let (pulls, _) = super::law_traits(c);
     let damping = c.damping.unwrap_or(match conv {
         Liggghts | Talus => HertzDamping::Liggghts,
         Yade => HertzDamping::Yade,
@@ -61,7 +61,7 @@ pub fn resolve(c: &ContactSection) -> ContactOptions {
     let kinematics = c.shear_kinematics.unwrap_or(match (conv, c.model) {
         (Yade, ModelName::Hertz | ModelName::Dmt | ModelName::Jkr) => ShearKinematics::FullRadii,
         (Lammps, _) => ShearKinematics::Radii,
-        (Yade | Liggghts | Talus, _) => ShearKinematics::ContactPoint,
+        (Yade, ModelName::Hooke) | (Liggghts | Talus, _) => ShearKinematics::ContactPoint,
     });
     let wall_contact = c.wall_contact_point.unwrap_or(match conv {
         Yade => WallContactPoint::Surface,

@@ -66,6 +66,46 @@ pub trait LawUser {
     fn with<L: ContactLaw>(self) -> Self::Out;
 }
 
+/// What the case's law is, from its type alone: (pulls, reaches beyond touching).
+pub fn law_traits(c: &ContactSection) -> (bool, bool) {
+    struct Traits;
+    impl LawUser for Traits {
+        type Out = (bool, bool);
+        fn with<L: ContactLaw>(self) -> Self::Out {
+            (L::PULLS, L::REACHES)
+        }
+    }
+    dispatch(c, Traits)
+}
+
+/// The longest reach beyond touching (m) of the case's law over every pair
+/// of materials, for bodies of radius at most `r_max` (taken as R* = r_max,
+/// a wall's, the largest R* there is; JKR's reach grows as R*^(1/3)); 0 for
+/// a law whose contacts end at touching, or whose keys are bad (refused
+/// elsewhere).
+pub fn longest_reach(c: &ContactSection, table: &crate::material::PairTable, r_max: f64) -> f64 {
+    struct Reach<'a>(&'a ContactSection, &'a crate::material::PairTable, f64);
+    impl LawUser for Reach<'_> {
+        type Out = f64;
+        fn with<L: ContactLaw>(self) -> f64 {
+            let Reach(c, table, r_max) = self;
+            let Ok(law) = L::from_case(c, &conventions::resolve(c)) else { return 0.0 };
+            if !L::REACHES || !(r_max > 0.0) {
+                return 0.0;
+            }
+            let mut reach: f64 = 0.0;
+            for a in 0..table.len() as u16 {
+                for b in 0..table.len() as u16 {
+                    let pm = table.get(a, b);
+                    reach = reach.max(law.reach(&law.pair(pm, PairInertia::wall(r_max, 1.0))));
+                }
+            }
+            reach
+        }
+    }
+    dispatch(c, Reach(c, table, r_max))
+}
+
 /// Check that the case's `[contact]` section gives the keys its law needs
 /// (and none that belong to another law), by building the law.
 pub fn check_law(c: &ContactSection) -> Result<(), KeyError> {
@@ -164,6 +204,12 @@ pub trait ContactLaw: Copy + PartialEq + Send + Sync + 'static {
     /// last step. A law that does not (`false`) ends each contact at zero
     /// overlap, and its sweeps carry no trace of reach.
     const REACHES: bool = false;
+
+    /// Whether the law's normal force pulls (its [`ContactLaw::pulloff`] is
+    /// positive): its force is then never clipped at zero, and friction is
+    /// capped by |F_el + 2 F_pulloff| unless the case says otherwise
+    /// (`conventions::resolve`).
+    const PULLS: bool = false;
 
     /// How far beyond contact (m, >= 0) a contact that touched at the last
     /// step still acts (JKR's pull-off separation).

@@ -180,6 +180,9 @@ fn check(case: &Case) -> Result<Law, TalusError> {
             }
         }
     }
+    if case.output.final_state {
+        return Err(refuse(case, "output.final_state", "the LAMMPS deck writes probes.csv only, not the final state"));
+    }
     for ph in &case.phases {
         if ph.kinetic_energy_fraction.is_some() {
             return Err(refuse(case, &format!("phase.{}.kinetic_energy_fraction", ph.name), "the LAMMPS export writes phases of fixed duration only"));
@@ -242,7 +245,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         // beyond touching needs the skin to cover its reach, twice over across ranks
         let r_max = idx.iter().map(|&i| p.radius[i]).fold(0.0, f64::max);
         let table = crate::material::PairTable::new(&case.materials, Mixing::Liggghts);
-        let reach = crate::contact::adhesive::longest_reach(&case.contact, &table, r_max);
+        let reach = crate::contact::longest_reach(&case.contact, &table, r_max);
         skin = skin.max(2.0 * reach);
     }
     let d = &case.simulation.domain;
