@@ -61,7 +61,7 @@ for c in SC-rolling SC-rolling-epsd2 SC-cohesive-sjkr SC-cohesive-sjkr2 squeeze 
 done
 # LAMMPS 29Sep2021 (pair_style granular) as the third reference: Hertz-Mindlin single collisions, and
 # the laws that pull, DMT and JKR (LIGGGHTS 3.8 has neither; YADE's Mindlin DMT damps and caps its own way)
-for c in SC-wall SC-pair SC-oblique SC-cohesive-dmt SC-cohesive-jkr; do
+for c in SC-wall SC-pair SC-oblique SC-cohesive-dmt SC-cohesive-jkr SC-mixed-laws; do
   python3 -m compare "cases/$c.toml" --engines talus,lammps --out "$out/case-$c-lammps" > "$out-case-$c-lammps.log" 2>&1 \
     || { cat "$out-case-$c-lammps.log"; echo "compare cases/$c.toml (lammps): FAILED"; exit 1; }
   passed "compare cases/$c.toml (talus,lammps, exported): within tolerance"

@@ -342,6 +342,7 @@ impl ContactSection {
             rolling: None,
             cohesion: None,
             surface_energy: None,
+            pairs: Vec::new(),
         }
     }
 }

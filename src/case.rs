@@ -186,7 +186,7 @@ impl ModelName {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSection {
     pub model: ModelName,
@@ -221,6 +221,65 @@ pub struct ContactSection {
     /// coefficient; the work of adhesion is 2 gamma): pull-off 4 pi gamma R*
     /// (DMT), 3 pi gamma R* (JKR).
     pub surface_energy: Option<f64>,
+    /// `[[contact.pair]]`: the law of particular pairs of materials (walls'
+    /// materials included), each key given replacing the section's for that
+    /// pair. None: one law for every pair.
+    #[serde(default, rename = "pair", skip_serializing_if = "Vec::is_empty")]
+    pub pairs: Vec<ContactPair>,
+}
+
+/// `[[contact.pair]]`: one pair of materials with a law of its own (as
+/// LAMMPS's `pair_coeff i j`, LIGGGHTS's `peratomtypepair` values, YADE's
+/// per-material-pair functors). Each key given replaces the `[contact]`
+/// section's for this pair; the conventions (`convention`, `tangential`,
+/// `friction_cap`, ...) stay the section's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactPair {
+    /// The two materials (their names; either order).
+    pub materials: [String; 2],
+    pub model: Option<ModelName>,
+    pub damping: Option<HertzDamping>,
+    pub characteristic_velocity: Option<f64>,
+    pub stiffness: Option<HookeExplicit>,
+    pub surface_energy: Option<f64>,
+    pub cohesion: Option<crate::contact::cohesion::Cohesion>,
+}
+
+impl ContactSection {
+    /// The section as pair `p` sees it: its keys replacing the section's, no pair table.
+    pub fn for_pair(&self, p: &ContactPair) -> ContactSection {
+        ContactSection {
+            model: p.model.unwrap_or(self.model),
+            convention: self.convention,
+            damping: p.damping.or(self.damping),
+            end_of_contact: self.end_of_contact,
+            tangential: self.tangential,
+            friction_cap: self.friction_cap,
+            shear_kinematics: self.shear_kinematics,
+            wall_contact_point: self.wall_contact_point,
+            characteristic_velocity: if p.model.is_some() || p.stiffness.is_some() { p.characteristic_velocity } else { p.characteristic_velocity.or(self.characteristic_velocity) },
+            stiffness: if p.model.is_some() || p.characteristic_velocity.is_some() { p.stiffness } else { p.stiffness.or(self.stiffness) },
+            rolling: self.rolling,
+            cohesion: p.cohesion.or(self.cohesion),
+            surface_energy: if p.model.is_some() { p.surface_energy } else { p.surface_energy.or(self.surface_energy) },
+            pairs: Vec::new(),
+        }
+    }
+
+    /// The law of the pair of materials named `a` and `b` (either order): its
+    /// `[[contact.pair]]`'s, else the section's.
+    pub fn for_materials(&self, a: &str, b: &str) -> ContactSection {
+        match self.pairs.iter().find(|p| (p.materials[0] == a && p.materials[1] == b) || (p.materials[0] == b && p.materials[1] == a)) {
+            Some(p) => self.for_pair(p),
+            None => ContactSection { pairs: Vec::new(), ..self.clone() },
+        }
+    }
+
+    /// Every law of the case: the section's, then each pair's.
+    pub fn laws(&self) -> impl Iterator<Item = ContactSection> + '_ {
+        std::iter::once(ContactSection { pairs: Vec::new(), ..self.clone() }).chain(self.pairs.iter().map(|p| self.for_pair(p)))
+    }
 }
 
 /// The rolling resistance law.
@@ -1190,32 +1249,43 @@ impl Case {
     }
 
     fn validate_contact(&self) -> Result<(), TalusError> {
-        // the law checks its own keys
-        // (cohesion's own keys are checked with the law: `contact::cohesion::Cohesive`)
+        // each pair of materials named once, by materials the case has
+        let mut seen: Vec<[u16; 2]> = Vec::new();
+        for (k, pr) in self.contact.pairs.iter().enumerate() {
+            let key = format!("contact.pair[{k}].materials");
+            let a = self.material_index(&pr.materials[0], &key)?;
+            let b = self.material_index(&pr.materials[1], &key)?;
+            let ab = [a.min(b), a.max(b)];
+            if seen.contains(&ab) {
+                return Err(self.err(&key, format!("{:?}", pr.materials), "this pair of materials has a law already (an earlier [[contact.pair]])"));
+            }
+            seen.push(ab);
+        }
+        // the law checks its own keys (every law of a pair table, each pair's
+        // named as contact.pair[k].KEY; cohesion's with the law)
         crate::contact::check_law(&self.contact).map_err(|e| self.err(&e.key, e.value, &e.why))?;
         let p = &self.particles;
         let spheres = !(self.simulation.dimension == Dimension::Two || !p.clumps.is_empty() || !p.ellipses.is_empty());
-        let model = self.contact.model;
-        if matches!(model, ModelName::Dmt | ModelName::Jkr) {
-            if !spheres {
+        for (k, law) in self.contact.laws().enumerate() {
+            let at = if k == 0 { "contact".to_string() } else { format!("contact.pair[{}]", k - 1) };
+            let model = law.model;
+            if matches!(model, ModelName::Dmt | ModelName::Jkr) && !spheres {
                 return Err(self.err(
-                    "contact.model",
+                    &format!("{at}.model"),
                     format!("\"{}\"", model.name()),
                     "the dmt and jkr laws act between spheres (3D, no clumps, no ellipses): their contact radius is that of two spheres",
                 ));
             }
-            if crate::contact::law_traits(&self.contact).1 && self.contact.rolling == Some(RollingModel::Epsd2) {
+            if model == ModelName::Jkr && self.contact.rolling == Some(RollingModel::Epsd2) {
                 return Err(self.err(
                     "contact.rolling",
                     "\"epsd2\"",
                     "the jkr law keeps its contact's state in the slot the epsd2 rolling spring would use; use cdt rolling resistance with jkr",
                 ));
             }
-        }
-        if let Some(c) = &self.contact.cohesion {
-            if !spheres {
+            if let (Some(c), false) = (&law.cohesion, spheres) {
                 return Err(self.err(
-                    "contact.cohesion.model",
+                    &format!("{at}.cohesion.model"),
                     format!("\"{}\"", c.model.name()),
                     "cohesion acts between spheres (3D, no clumps, no ellipses): its contact area is that of two overlapping spheres",
                 ));

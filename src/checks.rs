@@ -123,7 +123,16 @@ pub fn wall_overlaps(case: &Case, p: &Particles, walls: &[Wall]) -> Result<(), T
 /// derived Hooke stiffnesses come from the material, which the Rayleigh-time
 /// check covers.)
 pub fn contact_period(case: &Case, p: &Particles, dt: f64) -> Result<(), TalusError> {
-    let (ModelName::Hooke, Some(h)) = (case.contact.model, case.contact.stiffness) else { return Ok(()) };
+    // the stiffest explicit Hooke law of the case's (the section's or a pair's)
+    let stiffest = case
+        .contact
+        .laws()
+        .filter_map(|c| match (c.model, c.stiffness) {
+            (ModelName::Hooke, Some(h)) => Some(h),
+            (ModelName::Hooke | ModelName::Hertz | ModelName::Dmt | ModelName::Jkr, _) => None,
+        })
+        .max_by(|a, b| a.kn.total_cmp(&b.kn));
+    let Some(h) = stiffest else { return Ok(()) };
     if case.simulation.force_timestep {
         return Ok(());
     }

@@ -34,7 +34,7 @@ const PREFETCH: usize = 6;
 const ROW_PREFETCH: usize = 8;
 
 /// Everything the sweep needs besides state.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SweepSettings {
     /// The case's `[contact]` section: the model and the law's own keys (the
     /// law is built from it once per sweep).

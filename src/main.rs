@@ -122,11 +122,11 @@ fn main() -> ExitCode {
             // has the same one: only rank 0 prints it. Other errors are printed by
             // the other ranks too if they are still running, i.e. if rank 0 did not fail
             if rank == 0 {
-                eprintln!("talus: error: {e}");
+                talus::parallel::comm::say(&format!("talus: error: {e}"));
             } else {
                 std::thread::sleep(std::time::Duration::from_millis(500));
                 if !matches!(e, TalusError::Input(_)) {
-                    eprintln!("talus: error (rank {rank} of {size}): {e}");
+                    talus::parallel::comm::say(&format!("talus: error (rank {rank} of {size}): {e}"));
                 }
             }
             ExitCode::FAILURE

@@ -84,6 +84,10 @@ pub struct PairMaterial {
     /// tangential damping is x_gt = 1 times the normal one), indexed by
     /// `HertzDamping::index`.
     pub hertz_damping: [[f64; 2]; 3],
+    /// Which of the case's laws acts on this pair: 0 the `[contact]`
+    /// section's, k the k-th `[[contact.pair]]`'s (`PairTable::for_case`).
+    #[serde(default)]
+    pub law: u8,
 }
 
 /// How two materials are mixed into one pair (the conventions of the reference codes).
@@ -114,6 +118,20 @@ impl PairTable {
         }
         PairTable { n, entries }
     }
+    /// The table of a case's materials, each pair of `[[contact.pair]]` marked
+    /// with its law (`PairMaterial::law`); a pair named twice takes the last.
+    pub fn for_case(case: &crate::case::Case, mixing: Mixing) -> Self {
+        let mut t = PairTable::new(&case.materials, mixing);
+        for (k, p) in case.contact.pairs.iter().enumerate() {
+            let idx = |name: &str| case.materials.iter().position(|m| m.name == name);
+            if let (Some(a), Some(b)) = (idx(&p.materials[0]), idx(&p.materials[1])) {
+                t.entries[a * t.n + b].law = (k + 1) as u8;
+                t.entries[b * t.n + a].law = (k + 1) as u8;
+            }
+        }
+        t
+    }
+
     #[inline(always)]
     pub fn get(&self, a: u16, b: u16) -> &PairMaterial {
         &self.entries[a as usize * self.n + b as usize]
@@ -147,7 +165,7 @@ pub fn mix(a: &Material, b: &Material, mixing: Mixing) -> PairMaterial {
     // LAMMPS tsuji: eta = alpha(e) sqrt(m* 4/3 Y* a), a = sqrt(R* delta)
     let ts = crate::contact::hertz::tsuji_alpha(restitution) * (4.0 / 3.0 * y_eff).sqrt();
     let hertz_damping = [[l * sn, l * st], [2.0 * ratio * sn, 2.0 * ratio * st], [ts, ts]];
-    PairMaterial { y_eff, g_eff, restitution, friction, rolling_friction, hertz_damping }
+    PairMaterial { y_eff, g_eff, restitution, friction, rolling_friction, hertz_damping, law: 0 }
 }
 
 #[cfg(test)]

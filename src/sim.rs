@@ -119,7 +119,7 @@ impl Simulation {
         let path = case.path.display().to_string();
         // every convention option, resolved in one place
         let opts = crate::contact::conventions::resolve(&case.contact);
-        let table = PairTable::new(&case.materials, opts.mixing);
+        let table = PairTable::for_case(&case, opts.mixing);
         let mut p = build_particles(&case, &comm)?;
         // every rank holds every particle here: inserted ones follow the largest id
         let inserts = crate::insert::Insertions::new(&case, p.id.iter().copied().max().unwrap_or(0) + 1);
@@ -144,7 +144,7 @@ impl Simulation {
             dt,
             dim: s.dimension,
             sweep: SweepSettings {
-                contact: case.contact,
+                contact: case.contact.clone(),
                 opts,
                 gravity: Vec3::from(s.gravity),
                 dt,

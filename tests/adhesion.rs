@@ -92,3 +92,36 @@ fn jkr_pulls_off_a_flat_wall_at_3_pi_gamma_r_beyond_touching() {
     let beyond = (last as f64 - 10_000.0) * 1e-6 * 1e-4;
     assert!((beyond / -delta_c - 1.0).abs() < 0.02, "let go {beyond} m beyond touching, against |delta_c| = {} m", -delta_c);
 }
+
+/// A case whose `[contact]` section has a pair table appended.
+fn with_pairs(pairs: &str) -> Result<talus::sim::Simulation, String> {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/cases/SC-mixed-laws.toml")).unwrap();
+    let i = text.find("\n[[contact.pair]]").unwrap() + 1;
+    let j = text.find("\n[[material]]").unwrap() + 1;
+    let text = format!("{}{pairs}\n{}", &text[..i], &text[j..]);
+    let case = Case::parse(&text, Path::new("pairs.toml")).map_err(|e| e.to_string())?;
+    Simulation::new(case).map_err(|e| e.to_string())
+}
+
+#[test]
+fn a_pair_table_names_its_materials_once_and_its_keys_by_pair() {
+    if let Err(e) = with_pairs("[[contact.pair]]\nmaterials = [\"grain\", \"glue\"]\nmodel = \"dmt\"\nsurface_energy = 0.02\n") {
+        panic!("{e}");
+    }
+    for (pairs, want) in [
+        ("[[contact.pair]]\nmaterials = [\"grain\", \"rubber\"]\nmodel = \"hertz\"\n", "contact.pair[0].materials = \"rubber\": no material of that name"),
+        (
+            "[[contact.pair]]\nmaterials = [\"grain\", \"glue\"]\nmodel = \"hertz\"\n[[contact.pair]]\nmaterials = [\"glue\", \"grain\"]\nmodel = \"dmt\"\nsurface_energy = 0.1\n",
+            "contact.pair[1].materials",
+        ),
+        // dmt needs its surface energy: the pair's key is named
+        ("[[contact.pair]]\nmaterials = [\"grain\", \"glue\"]\nmodel = \"dmt\"\n", "contact.pair[0].model = \"dmt\""),
+        // hertz takes none
+        ("[[contact.pair]]\nmaterials = [\"grain\", \"steel\"]\nmodel = \"hertz\"\nsurface_energy = 0.1\n", "contact.pair[0].surface_energy = 0.1"),
+        // a convention is the section's, not a pair's
+        ("[[contact.pair]]\nmaterials = [\"grain\", \"steel\"]\ntangential = \"total\"\n", "unknown field `tangential`"),
+    ] {
+        let e = with_pairs(pairs).err().unwrap_or_else(|| panic!("accepted:\n{pairs}"));
+        assert!(e.contains(want) && e.contains("pairs.toml"), "{e}\nwanted: {want}");
+    }
+}

@@ -316,11 +316,15 @@ def test_laws_that_pull_are_refused_by_name_where_a_reference_lacks_them_and_lam
         for to in ["liggghts", "yade"]:
             r = export(case, to)
             assert r.returncode != 0 and f'contact.model = "{model}"' in r.stderr and "lammps" in r.stderr, r.stderr
+    # a law per pair of materials: LAMMPS only
+    for to in ["liggghts", "yade"]:
+        r = export("SC-mixed-laws.toml", to)
+        assert r.returncode != 0 and "contact.pair" in r.stderr and "lammps" in r.stderr, r.stderr
     jkr = (CASES / "SC-cohesive-jkr.toml").read_text()
     dmt = (CASES / "SC-cohesive-dmt.toml").read_text()
     for case, text, key in [
         # this LAMMPS's JKR wall gives NaN forces
-        ("SC-cohesive-jkr.toml", dmt.replace('model = "dmt"', 'model = "jkr"'), "wall.plate with contact.model"),
+        ("SC-cohesive-jkr.toml", dmt.replace('model = "dmt"', 'model = "jkr"'), "wall.plate with a jkr law"),
         # the wall moves: the LAMMPS export writes still walls only
         ("SC-wall.toml", (CASES / "SC-wall.toml").read_text().replace("normal = [0.0, 0.0, 1.0] }", "normal = [0.0, 0.0, 1.0] }\nvelocity = [0.0, 0.0, 0.01]"), "wall.plate"),
         # LIGGGHTS's cohesion has no LAMMPS counterpart

@@ -97,6 +97,19 @@ impl Cohesion {
         }
     }
 
+    /// Add the cohesive force to a contact's force (spheres only: the case
+    /// refuses cohesion for other shapes; while the bodies overlap: a law
+    /// that reaches beyond touching pulls there by itself). A force along the
+    /// normal through the centres adds no torque.
+    #[inline(always)]
+    pub fn add_to(&self, c: &mut ContactForce, g: &ContactGeom) {
+        if let (Lever::AlongNormal { radius_i, radius_j, .. }, true) = (g.lever, g.overlap > 0.0) {
+            let f = self.force(radius_i, radius_j, g.overlap);
+            c.force += g.n * f;
+            c.normal += f;
+        }
+    }
+
     /// The cohesive normal force on i (N, negative: towards j).
     #[inline(always)]
     pub fn force(&self, r_i: f64, r_j: f64, overlap: f64) -> f64 {
@@ -161,12 +174,7 @@ impl<L: ContactLaw> ContactLaw for Cohesive<L> {
         dt: f64,
     ) -> ContactForce {
         let mut c = self.law.contact(o, pm, pi, pair, g, m, hist, roll, dt);
-        // spheres only: the case refuses cohesion for other shapes
-        if let Lever::AlongNormal { radius_i, radius_j, .. } = g.lever {
-            let f = self.cohesion.force(radius_i, radius_j, g.overlap);
-            c.force += g.n * f;
-            c.normal += f;
-        }
+        self.cohesion.add_to(&mut c, g);
         c
     }
 }

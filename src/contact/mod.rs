@@ -24,6 +24,7 @@ pub mod ellipse;
 pub mod geometry;
 pub mod hertz;
 pub mod hooke;
+pub mod per_pair;
 
 pub use conventions::ContactOptions;
 pub use geometry::{ContactGeom, Lever, Motion, Shapes};
@@ -42,6 +43,10 @@ use serde::{Deserialize, Serialize};
 /// With `contact.cohesion` the law is wrapped in [`cohesion::Cohesive`], so a
 /// sweep without cohesion carries no trace of it.
 pub fn dispatch<U: LawUser>(c: &ContactSection, user: U) -> U::Out {
+    if !c.pairs.is_empty() {
+        // laws per pair of materials: one law type holding them all
+        return user.with::<per_pair::PerPair>();
+    }
     match c.model {
         ModelName::Hooke if c.stiffness.is_some() => with_cohesion::<U, hooke::HookeExplicit>(c, user),
         ModelName::Hooke => with_cohesion::<U, hooke::Hooke>(c, user),

@@ -133,6 +133,7 @@ fn conventions_fill_every_option_not_given() {
         rolling: None,
         cohesion: None,
         surface_energy: None,
+        pairs: Vec::new(),
     };
     // LAMMPS: tsuji damping, rescaled history, full radii as spin arms, the
     // cap |F_el + 2 F_pulloff| (the total force for a law that does not pull),

@@ -58,10 +58,41 @@ fn io(path: &Path, e: std::io::Error) -> TalusError {
     TalusError::io(format!("writing {}", path.display()), e)
 }
 
+/// The law of one section (the case's, or a pair's as `ContactSection::for_pair`
+/// makes it) as LAMMPS writes it, or refused naming the key under `at`.
+fn law_of(case: &Case, c: &crate::case::ContactSection, at: &str) -> Result<Law, TalusError> {
+    let law = match c.model {
+        ModelName::Hertz => Law::Hertz,
+        ModelName::Dmt => Law::Dmt(c.surface_energy.unwrap_or(0.0)),
+        ModelName::Jkr => Law::Jkr(c.surface_energy.unwrap_or(0.0)),
+        ModelName::Hooke => match c.stiffness {
+            Some(k) => Law::Hooke(k),
+            None => {
+                return Err(refuse(
+                    case,
+                    &format!("{at}.characteristic_velocity"),
+                    "LAMMPS takes a Hooke stiffness per pair of atom types, while LIGGGHTS's derived stiffness depends on each pair's R* and m*; give contact.stiffness",
+                ))
+            }
+        },
+    };
+    if let Law::Hooke(k) = law {
+        if k.gamma_n == 0.0 && k.gamma_t != 0.0 {
+            return Err(refuse(case, &format!("{at}.stiffness.gamma_t"), "LAMMPS's tangential damping is a multiple of the normal one, which is 0 here"));
+        }
+    }
+    match (law, c.damping) {
+        (_, None) | (Law::Hertz | Law::Dmt(_) | Law::Jkr(_), Some(HertzDamping::Tsuji)) => {}
+        (_, Some(d)) => {
+            return Err(refuse(case, &format!("{at}.damping = \"{}\"", d.name()), "the deck maps restitution to damping as LAMMPS's `damping tsuji` does"));
+        }
+    }
+    Ok(law)
+}
+
 /// Refuse what the LAMMPS deck cannot hold, naming the key (every model and
-/// option decided here: a new one does not compile until it is); the law as
-/// it is written.
-fn check(case: &Case) -> Result<Law, TalusError> {
+/// option decided here: a new one does not compile until it is).
+fn check(case: &Case) -> Result<(), TalusError> {
     let s = &case.simulation;
     if s.dimension == Dimension::Two {
         return Err(refuse(case, "simulation.dimension = 2", "the LAMMPS export writes 3D spheres only"));
@@ -76,30 +107,15 @@ fn check(case: &Case) -> Result<Law, TalusError> {
         return Err(refuse(case, "particles.clumps", "the LAMMPS export writes no rigid clumps"));
     }
     let c = &case.contact;
-    let law = match c.model {
-        ModelName::Hertz => Law::Hertz,
-        ModelName::Dmt => Law::Dmt(c.surface_energy.unwrap_or(0.0)),
-        ModelName::Jkr => Law::Jkr(c.surface_energy.unwrap_or(0.0)),
-        ModelName::Hooke => match c.stiffness {
-            Some(k) => Law::Hooke(k),
-            None => {
-                return Err(refuse(
-                    case,
-                    "contact.characteristic_velocity",
-                    "LAMMPS takes a Hooke stiffness per pair of atom types, while LIGGGHTS's derived stiffness depends on each pair's R* and m*; give contact.stiffness",
-                ))
-            }
-        },
-    };
-    if let Law::Hooke(k) = law {
-        if k.gamma_n == 0.0 && k.gamma_t != 0.0 {
-            return Err(refuse(case, "contact.stiffness.gamma_t", "LAMMPS's tangential damping is a multiple of the normal one, which is 0 here"));
-        }
-    }
-    match (law, c.damping) {
-        (_, None) | (Law::Hertz | Law::Dmt(_) | Law::Jkr(_), Some(HertzDamping::Tsuji)) => {}
-        (_, Some(d)) => {
-            return Err(refuse(case, &format!("contact.damping = \"{}\"", d.name()), "the deck maps restitution to damping as LAMMPS's `damping tsuji` does"));
+    for (k, l) in c.laws().enumerate() {
+        let at = if k == 0 { "contact".to_string() } else { format!("contact.pair[{}]", k - 1) };
+        law_of(case, &l, &at)?;
+        if let Some(coh) = &l.cohesion {
+            return Err(refuse(
+                case,
+                &format!("{at}.cohesion.model = \"{}\"", coh.model.name()),
+                "LAMMPS has no simplified-JKR cohesion (a force proportional to the overlap's area); its adhesive laws are model = \"dmt\" and \"jkr\"",
+            ));
         }
     }
     match c.end_of_contact {
@@ -139,20 +155,16 @@ fn check(case: &Case) -> Result<Law, TalusError> {
             return Err(refuse(case, &format!("contact.rolling = \"{name}\""), "LAMMPS 29Sep2021's rolling resistance is its `rolling sds` spring-dashpot-slider, not LIGGGHTS's cdt or epsd2"));
         }
     }
-    if let Some(coh) = &c.cohesion {
-        return Err(refuse(
-            case,
-            &format!("contact.cohesion.model = \"{}\"", coh.model.name()),
-            "LAMMPS has no simplified-JKR cohesion (a force proportional to the overlap's area); its adhesive laws are model = \"dmt\" and \"jkr\"",
-        ));
-    }
-    if matches!(law, Law::Jkr(_)) {
-        if let Some(w) = case.walls.first() {
-            return Err(refuse(
-                case,
-                &format!("wall.{} with contact.model = \"jkr\"", w.name),
-                "LAMMPS 29Sep2021's `fix wall/gran granular jkr` keeps a wall contact far beyond its pull-off distance and returns NaN forces there (measured with the Debian binary)",
-            ));
+    // (the particles' materials: the initial ones'; the export inserts none)
+    for w in &case.walls {
+        for m in [&case.particles.material] {
+            if c.for_materials(&w.material, m).model == ModelName::Jkr {
+                return Err(refuse(
+                    case,
+                    &format!("wall.{} with a jkr law (particles of material {m})", w.name),
+                    "LAMMPS 29Sep2021's `fix wall/gran granular jkr` keeps a wall contact far beyond its pull-off distance and returns NaN forces there (measured with the Debian binary)",
+                ));
+            }
         }
     }
     for w in &case.walls {
@@ -194,7 +206,7 @@ fn check(case: &Case) -> Result<Law, TalusError> {
             return Err(refuse(case, &format!("phase.{}.remove_walls_at_end", ph.name), "the LAMMPS export writes walls that stay"));
         }
     }
-    Ok(law)
+    Ok(())
 }
 
 /// The words of a `pair_coeff` or a wall fix for the mixed pair `pm`:
@@ -218,7 +230,9 @@ fn model_words(law: Law, pm: &PairMaterial, nu: f64, wall: bool) -> String {
 }
 
 pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
-    let law = check(case)?;
+    check(case)?;
+    // each pair of materials' law (a pair of `[[contact.pair]]`'s, else the section's)
+    let law = |a: usize, b: usize| law_of(case, &case.contact.for_materials(&case.materials[a].name, &case.materials[b].name), "contact");
     let sim = Simulation::new(case.clone())?;
     let dt = sim.dt();
     let mut skin = sim.state().nl.skin;
@@ -240,11 +254,11 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     if shift == 1 {
         notes.push("talus ids start at 0: LAMMPS ids are talus ids + 1 (probe columns keep talus's ids)".into());
     }
-    if let Law::Jkr(_) = law {
+    if case.contact.laws().any(|l| l.model == ModelName::Jkr) {
         // LAMMPS keeps a pair within r_i + r_j + skin at a build: a JKR contact
         // beyond touching needs the skin to cover its reach, twice over across ranks
         let r_max = idx.iter().map(|&i| p.radius[i]).fold(0.0, f64::max);
-        let table = crate::material::PairTable::new(&case.materials, Mixing::Liggghts);
+        let table = crate::material::PairTable::for_case(case, Mixing::Liggghts);
         let reach = crate::contact::longest_reach(&case.contact, &table, r_max);
         skin = skin.max(2.0 * reach);
     }
@@ -292,7 +306,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     for a in 0..nmat {
         for b in a..nmat {
             let nu = case.materials[a].poisson_ratio;
-            let _ = writeln!(w, "pair_coeff      {} {} {}", a + 1, b + 1, model_words(law, &mixed(a, b), nu, false));
+            let _ = writeln!(w, "pair_coeff      {} {} {}", a + 1, b + 1, model_words(law(a, b)?, &mixed(a, b), nu, false));
         }
     }
     let _ = writeln!(w, "timestep        {}", g(dt));
@@ -305,7 +319,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
 
     // walls: a fix per wall and particle material (the wall's coefficients are per fix)
     let _ = writeln!(w, "\n# ---- walls: fix wall/gran granular, one per wall and particle material (f_ID[2..4]: the wall's force on a particle)");
-    let mut wall_fixes: Vec<(String, Vec<String>, usize, f64)> = Vec::new();
+    let mut wall_fixes: Vec<(String, Vec<(usize, String)>, usize, f64)> = Vec::new();
+    let mut particle_materials: Vec<usize> = idx.iter().map(|&i| p.material[i] as usize).collect();
+    particle_materials.sort_unstable();
+    particle_materials.dedup();
     for ws in &case.walls {
         let WallShape::Plane(pl) = &ws.shape else {
             return Err(refuse(case, &format!("wall.{}", ws.name), "the LAMMPS export writes plane walls only"));
@@ -317,12 +334,13 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         let wm = case.material_index(&ws.material, "wall.material")? as usize;
         let (lo, hi) = if side > 0.0 { (g(at), "NULL".to_string()) } else { ("NULL".to_string(), g(at)) };
         let mut ids = Vec::new();
-        for k in 0..nmat {
+        // one fix per material the particles have
+        for &k in &particle_materials {
             let id = format!("{}_m{}", ws.name, k + 1);
             let nu = case.materials[k].poisson_ratio;
-            let words = model_words(law, &mixed(k, wm), nu, true);
+            let words = model_words(law(k, wm)?, &mixed(k, wm), nu, true);
             let _ = writeln!(w, "fix             {id} m{} wall/gran granular {words} {}plane {lo} {hi} contacts", k + 1, ["x", "y", "z"][axis]);
-            ids.push(id);
+            ids.push((k, id));
         }
         wall_fixes.push((ws.name.clone(), ids, axis, side));
     }
@@ -339,7 +357,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         // origin from the contact point x - r n (arm r, as talus in LAMMPS's convention)
         let q = ["x", "y", "z"][*axis];
         let mut sums = Vec::new();
-        for (k, id) in ids.iter().enumerate() {
+        for (k, id) in ids {
             let f = |c: usize| format!("f_{id}[{}]", c + 2);
             let mut c = ["x".to_string(), "y".to_string(), "z".to_string()];
             c[*axis] = format!("({q}-{}*c_pa[4])", g(*side));

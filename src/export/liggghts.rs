@@ -162,6 +162,9 @@ enum Law {
 /// model decided here: a new one does not compile until it is).
 fn law(case: &Case) -> Result<Law, TalusError> {
     let c = &case.contact;
+    if let Some(pr) = c.pairs.first() {
+        return Err(refuse(case, &format!("contact.pair (materials {:?})", pr.materials), "LIGGGHTS 3.8's pair style takes one contact model for every pair of atom types; compare laws per pair of materials against LAMMPS (--engines talus,lammps)"));
+    }
     match c.model {
         ModelName::Hertz => Ok(Law::Hertz),
         ModelName::Hooke => match (c.stiffness, c.characteristic_velocity) {

@@ -62,6 +62,9 @@ fn check(case: &Case) -> Result<(), TalusError> {
     let c = &case.contact;
     // every model and option decided here, by name (a new one does not
     // compile until it is)
+    if let Some(pr) = c.pairs.first() {
+        return Err(refuse(case, &format!("contact.pair (materials {:?})", pr.materials), "the YADE export writes one law for every pair of materials; compare laws per pair of materials against LAMMPS (--engines talus,lammps)"));
+    }
     let hertz = match c.model {
         ModelName::Hertz => true,
         ModelName::Hooke => false,

@@ -307,10 +307,10 @@ impl Comm {
         let texts = self.gather_bytes_unchecked(site.text(n).as_bytes());
         let lines: Vec<String> = texts.iter().enumerate().map(|(r, t)| format!("rank {r}: {}", String::from_utf8_lossy(t))).collect();
         if world.rank() == 0 {
-            eprintln!(
+            say(&format!(
                 "talus: error: the ranks' collectives differ (a collective reached on some ranks only; every rank must make the same collectives in the same order): {}; ending the job",
                 lines.join("; ")
-            );
+            ));
         } else {
             std::thread::sleep(std::time::Duration::from_millis(500));
         }
@@ -347,12 +347,12 @@ fn wait_all_gather(world: &mpi::topology::SimpleCommunicator, send: &[u64], recv
             }
             let waited = start.elapsed().as_secs_f64();
             if waited > timeout {
-                eprintln!(
+                say(&format!(
                     "talus: error: rank {} of {} waited {waited:.0} s in {} for the other ranks to join (TALUS_COLLECTIVE_TIMEOUT); ending the job",
                     world.rank(),
                     world.size(),
                     what()
-                );
+                ));
                 world.abort(75);
             }
             if waited < 1.0 {
@@ -383,4 +383,13 @@ pub fn abort_world(code: i32) -> ! {
         mpi::ffi::MPI_Abort(mpi::ffi::RSMPI_COMM_WORLD, code);
     }
     std::process::exit(code)
+}
+
+/// One line to stderr in one write: under mpirun each write of a rank is
+/// forwarded on its own, so a line written in pieces (as `eprintln!` writes
+/// its format's parts) can be cut by mpirun's own messages, such as the
+/// banner of the abort that follows it.
+pub fn say(line: &str) {
+    use std::io::Write as _;
+    let _ = std::io::stderr().lock().write_all(format!("{line}\n").as_bytes());
 }
