@@ -75,6 +75,7 @@ interval = 1e-3
 fn dmt_pulls_off_a_flat_wall_at_4_pi_gamma_r() {
     let (pull, _) = pull_off("dmt");
     let want = 4.0 * PI * GAMMA * R;
+    eprintln!("dmt pull-off {pull:.6e} N, 4 pi gamma R = {want:.6e} N, ratio {:.5}", pull / want);
     assert!((pull / want - 1.0).abs() < 0.01, "pull-off {pull} N against 4 pi gamma R = {want} N");
 }
 
@@ -82,6 +83,7 @@ fn dmt_pulls_off_a_flat_wall_at_4_pi_gamma_r() {
 fn jkr_pulls_off_a_flat_wall_at_3_pi_gamma_r_beyond_touching() {
     let (pull, last) = pull_off("jkr");
     let want = 3.0 * PI * GAMMA * R;
+    eprintln!("jkr pull-off {pull:.6e} N, 3 pi gamma R = {want:.6e} N, ratio {:.5}", pull / want);
     assert!((pull / want - 1.0).abs() < 0.01, "pull-off {pull} N against 3 pi gamma R = {want} N");
     // the contact lasted past touching (1e-6 m at 1e-4 m/s: 10,000 steps) by about
     // the pull-off separation delta_c = a_c^2 / R - 2 sqrt(pi gamma a_c / E*), a_c^3 = 9 pi gamma R^2 / (4 E*)
@@ -90,6 +92,7 @@ fn jkr_pulls_off_a_flat_wall_at_3_pi_gamma_r_beyond_touching() {
     let a_c = (9.0 * PI * GAMMA * R * R / (4.0 * e)).cbrt();
     let delta_c = a_c * a_c / R - 2.0 * (PI * GAMMA * a_c / e).sqrt();
     let beyond = (last as f64 - 10_000.0) * 1e-6 * 1e-4;
+    eprintln!("jkr let go {beyond:.4e} m beyond touching, |delta_c| = {:.4e} m", -delta_c);
     assert!((beyond / -delta_c - 1.0).abs() < 0.02, "let go {beyond} m beyond touching, against |delta_c| = {} m", -delta_c);
 }
 
