@@ -12,7 +12,7 @@ use super::cohesion::Cohesion;
 use super::geometry::{ContactGeom, Motion};
 use super::hertz::Hertz;
 use super::hooke::{Hooke, HookeExplicit};
-use super::{conventions, evaluate, ContactForce, ContactLaw, ContactOptions, KeyError, NormalCoeffs, PairInertia};
+use super::{evaluate, ContactForce, ContactLaw, ContactOptions, KeyError, NormalCoeffs, PairInertia};
 use crate::case::{ContactSection, ModelName};
 use crate::dim::Vec3;
 use crate::material::PairMaterial;
@@ -41,7 +41,8 @@ impl Slot {
     /// The law of a section (a pair's, as `ContactSection::for_pair` makes
     /// it), with its own damping mapping and the run's other options.
     pub fn from_section(c: &ContactSection, o: &ContactOptions) -> Result<Slot, KeyError> {
-        let o = ContactOptions { damping: conventions::resolve(c).damping, ..*o };
+        // (the run's options resolved the section's damping; a pair's own replaces it)
+        let o = ContactOptions { damping: c.damping.unwrap_or(o.damping), ..*o };
         let law = match c.model {
             ModelName::Hooke if c.stiffness.is_some() => AnyLaw::HookeExplicit(HookeExplicit::from_case(c, &o)?),
             ModelName::Hooke => AnyLaw::Hooke(Hooke::from_case(c, &o)?),
@@ -65,8 +66,8 @@ pub struct PerPair {
 /// A pair's law with its constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PairLaw {
+    /// Either Hooke form: its four coefficients for this pair.
     Hooke(HookeExplicit),
-    HookeExplicit(HookeExplicit),
     Hertz(Hertz),
     Dmt(Dmt, f64),
     Jkr(Jkr, JkrPair),
@@ -106,7 +107,7 @@ impl ContactLaw for PerPair {
         let slot = self.slots[pm.law as usize].or(self.slots[0]).expect("slot 0 is the section's law");
         let law = match slot.law {
             AnyLaw::Hooke(h) => PairLaw::Hooke(h.pair(pm, pi)),
-            AnyLaw::HookeExplicit(h) => PairLaw::HookeExplicit(h),
+            AnyLaw::HookeExplicit(h) => PairLaw::Hooke(h),
             AnyLaw::Hertz(h) => PairLaw::Hertz(h),
             AnyLaw::Dmt(d) => PairLaw::Dmt(d, d.pair(pm, pi)),
             AnyLaw::Jkr(j) => PairLaw::Jkr(j, j.pair(pm, pi)),
@@ -117,8 +118,7 @@ impl ContactLaw for PerPair {
     #[inline(always)]
     fn normal(&self, pm: &PairMaterial, pi: PairInertia, k: &PairConstants, overlap: f64) -> NormalCoeffs {
         match &k.law {
-            PairLaw::Hooke(h) => Hooke::Explicit(*h).normal(pm, pi, h, overlap),
-            PairLaw::HookeExplicit(h) => h.normal(pm, pi, &(), overlap),
+            PairLaw::Hooke(h) => h.normal(pm, pi, &(), overlap),
             PairLaw::Hertz(h) => h.normal(pm, pi, &(), overlap),
             PairLaw::Dmt(d, f) => d.normal(pm, pi, f, overlap),
             PairLaw::Jkr(j, c) => j.normal(pm, pi, c, overlap),
@@ -129,7 +129,7 @@ impl ContactLaw for PerPair {
     fn reach(&self, k: &PairConstants) -> f64 {
         match &k.law {
             PairLaw::Jkr(j, c) => j.reach(c),
-            PairLaw::Hooke(_) | PairLaw::HookeExplicit(_) | PairLaw::Hertz(_) | PairLaw::Dmt(..) => 0.0,
+            PairLaw::Hooke(_) | PairLaw::Hertz(_) | PairLaw::Dmt(..) => 0.0,
         }
     }
 
@@ -138,7 +138,7 @@ impl ContactLaw for PerPair {
         match &k.law {
             PairLaw::Dmt(d, f) => d.pulloff(f),
             PairLaw::Jkr(j, c) => j.pulloff(c),
-            PairLaw::Hooke(_) | PairLaw::HookeExplicit(_) | PairLaw::Hertz(_) => 0.0,
+            PairLaw::Hooke(_) | PairLaw::Hertz(_) => 0.0,
         }
     }
 

@@ -235,7 +235,9 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let law = |a: usize, b: usize| law_of(case, &case.contact.for_materials(&case.materials[a].name, &case.materials[b].name), "contact");
     let sim = Simulation::new(case.clone())?;
     let dt = sim.dt();
-    let mut skin = sim.state().nl.skin;
+    // (a JKR contact beyond touching needs the skin to cover its reach, twice
+    // over across LAMMPS's ranks: talus's own skin is at least that already)
+    let skin = sim.state().nl.skin;
     let mut notes = Vec::new();
     if case.contact.convention != Convention::Lammps {
         notes.push(format!(
@@ -253,14 +255,6 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let shift = if idx.first().is_some_and(|&i| p.id[i] == 0) { 1 } else { 0 };
     if shift == 1 {
         notes.push("talus ids start at 0: LAMMPS ids are talus ids + 1 (probe columns keep talus's ids)".into());
-    }
-    if case.contact.laws().any(|l| l.model == ModelName::Jkr) {
-        // LAMMPS keeps a pair within r_i + r_j + skin at a build: a JKR contact
-        // beyond touching needs the skin to cover its reach, twice over across ranks
-        let r_max = idx.iter().map(|&i| p.radius[i]).fold(0.0, f64::max);
-        let table = crate::material::PairTable::for_case(case, Mixing::Liggghts);
-        let reach = crate::contact::longest_reach(&case.contact, &table, r_max);
-        skin = skin.max(2.0 * reach);
     }
     let d = &case.simulation.domain;
     let mut data = String::new();
