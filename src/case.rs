@@ -816,6 +816,43 @@ pub struct OutputSection {
     /// the domain's length.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub momentum: bool,
+    /// Snapshots carry every contact (pair or wall, force, contact point,
+    /// branch vector), which `talus fields` needs for the contact stress.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub contacts: bool,
+    /// Continuum fields computed while the run goes (`[output.fields]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fields: Option<FieldsSection>,
+}
+
+/// `[output.fields]`: coarse-grained density, velocity and stress, averaged
+/// over the output times from `from` to `to`, written to the output folder
+/// as `profile_<axis>.csv` or `fields.h5` + `fields.xdmf` (what `talus fields`
+/// writes from snapshots).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldsSection {
+    /// "gauss" (width: standard deviation, cut off at 3 widths) or "lucy" (width: radius).
+    #[serde(default = "default_kernel")]
+    pub kernel: String,
+    /// The kernel's width (m).
+    pub width: f64,
+    /// A profile along "x", "y" or "z" (the fields averaged over the other two axes)...
+    pub profile: Option<String>,
+    /// ...or a grid of nx, ny, nz cells over the domain.
+    pub grid: Option<[usize; 3]>,
+    /// Points of a profile (default 100).
+    pub points: Option<usize>,
+    /// How often the fields are sampled (s).
+    pub interval: f64,
+    /// Sample from this time on (s; default the start).
+    pub from: Option<f64>,
+    /// Sample up to this time (s; default the end).
+    pub to: Option<f64>,
+}
+
+fn default_kernel() -> String {
+    "gauss".into()
 }
 
 impl Default for OutputSection {
@@ -828,6 +865,8 @@ impl Default for OutputSection {
             final_state: false,
             momentum: false,
             checkpoint_interval: None,
+            contacts: false,
+            fields: None,
         }
     }
 }
@@ -1638,6 +1677,20 @@ impl Case {
             if !z.is_finite() {
                 return Err(self.err("output.mass_below_z", z, "must be a finite height (m)"));
             }
+        }
+        if let Some(f) = &o.fields {
+            if self.simulation.dimension == crate::dim::Dimension::Two {
+                return Err(self.err("output.fields", "", "continuum fields are 3D only"));
+            }
+            if !(f.interval.is_finite() && f.interval > 0.0) {
+                return Err(self.err("output.fields.interval", f.interval, "must be a positive time (s)"));
+            }
+            for (key, v) in [("output.fields.from", f.from), ("output.fields.to", f.to)] {
+                if let Some(v) = v.filter(|v| !v.is_finite() || *v < 0.0) {
+                    return Err(self.err(key, v, "must be a time (s) from 0 on"));
+                }
+            }
+            crate::fields::plan(&f.kernel, f.width, f.profile.as_deref(), f.grid, f.points).map_err(|(key, v, why)| self.err(&format!("output.fields.{key}"), v, &why))?;
         }
         Ok(())
     }

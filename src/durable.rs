@@ -41,6 +41,21 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std
     Ok(())
 }
 
+/// Make the finished file `tmp` (written by a library that writes its own
+/// files, HDF5) durable and rename it over `path`, as [`write_atomic`] does.
+pub fn sync_rename(tmp: &Path, path: &Path) -> Result<(), TalusError> {
+    let f = File::open(tmp).map_err(|e| TalusError::io(format!("cannot open {}", tmp.display()), e))?;
+    f.sync_all().map_err(|e| TalusError::io(format!("syncing {}", tmp.display()), e))?;
+    drop(f);
+    std::fs::rename(tmp, path).map_err(|e| TalusError::io(format!("cannot rename {} to {}", tmp.display(), path.display()), e))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+    }
+    Ok(())
+}
+
 /// A CSV series written row by row and flushed at every `flush`.
 pub struct Series {
     path: PathBuf,

@@ -49,6 +49,23 @@ pub struct SweepSettings {
     pub grain: usize,
     /// The period along each axis (m; zero where the domain is not periodic).
     pub period: Vec3,
+    /// Keep every wall contact of the sweep in `NeighborList::wall_records`
+    /// (the continuum fields' stress needs each one's force and point).
+    pub record_walls: bool,
+}
+
+/// A wall contact as the sweep saw it (kept where `SweepSettings::record_walls`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallContact {
+    /// The particle (storage place).
+    pub particle: u32,
+    pub wall: u16,
+    /// The force on the particle (N).
+    pub force: Vec3,
+    /// The contact point (m).
+    pub point: Vec3,
+    /// The particle's centre, or the periodic image's that touches (m).
+    pub centre: Vec3,
 }
 
 /// Touching contacts found by a sweep.
@@ -422,13 +439,14 @@ fn wall_forces<L: ContactLaw>(
     }
     let pr: &Particles = p;
     let ws: &[Wall] = walls;
-    type Part = (Vec<[i128; 6]>, usize, Vec<(u32, Vec3, Vec3)>, Vec<Option<WallHit>>);
-    let empty = || -> Part { (vec![[0i128; 6]; ws.len()], 0, Vec::new(), Vec::with_capacity(16)) };
-    let (loads, contacts, updates, _) = hist
+    let record = s.record_walls;
+    type Part = (Vec<[i128; 6]>, usize, Vec<(u32, Vec3, Vec3)>, Vec<Option<WallHit>>, Vec<WallContact>);
+    let empty = || -> Part { (vec![[0i128; 6]; ws.len()], 0, Vec::new(), Vec::with_capacity(16), Vec::new()) };
+    let (loads, contacts, updates, _, records) = hist
         .into_par_iter()
         .zip(owners.par_iter())
         .with_min_len((s.grain / 4).max(1))
-        .fold(empty, |(mut loads, mut contacts, mut updates, mut hits), ((hist, roll), &i)| {
+        .fold(empty, |(mut loads, mut contacts, mut updates, mut hits, mut records), ((hist, roll), &i)| {
             let i = i as usize;
             let (lo, hi) = (wall_start[i] as usize, wall_start[i + 1] as usize);
             // all of this particle's wall contacts first, so that coincident ones can
@@ -472,19 +490,24 @@ fn wall_forces<L: ContactLaw>(
                 f += c.force;
                 t += c.torque_i;
                 add_load(&mut loads[wi], point, &c);
+                if record {
+                    records.push(WallContact { particle: i as u32, wall: wi as u16, force: c.force, point, centre: at(lo + k) });
+                }
             }
             updates.push((i as u32, f, t));
-            (loads, contacts, updates, hits)
+            (loads, contacts, updates, hits, records)
         })
-        .reduce(empty, |(mut a, ca, mut ua, h), (b, cb, ub, _)| {
+        .reduce(empty, |(mut a, ca, mut ua, h, mut ra), (b, cb, ub, _, rb)| {
             for (x, y) in a.iter_mut().zip(&b) {
                 for k in 0..6 {
                     x[k] += y[k];
                 }
             }
             ua.extend(ub);
-            (a, ca + cb, ua, h)
+            ra.extend(rb);
+            (a, ca + cb, ua, h, ra)
         });
+    nl.wall_records = records;
     for (i, f, t) in updates {
         p.force[i as usize] = f;
         p.torque[i as usize] = t;

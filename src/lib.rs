@@ -13,6 +13,7 @@ pub mod drag;
 pub mod durable;
 pub mod error;
 pub mod export;
+pub mod fields;
 pub mod fixed;
 pub mod forces;
 pub mod generate;

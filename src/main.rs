@@ -81,6 +81,38 @@ enum Cmd {
         #[arg(long)]
         inserted: Option<PathBuf>,
     },
+    /// Continuum fields from a run's snapshots: coarse-grained density, velocity and stress
+    /// (kinetic + contact, compression positive), averaged over the snapshots from --from to --to.
+    /// A profile goes to profile_<axis>.csv, a grid to fields.h5 + fields.xdmf (ParaView).
+    /// The contact stress needs snapshots with contacts (output.contacts = true).
+    Fields {
+        /// The run's output folder (holding snapshots.h5), or a snapshots.h5 file.
+        run: PathBuf,
+        /// The kernel: gauss (width: standard deviation, cut off at 3 widths) or lucy (width: radius).
+        #[arg(long, default_value = "gauss")]
+        kernel: String,
+        /// The kernel's width (m); about a particle diameter resolves a profile.
+        #[arg(long)]
+        width: f64,
+        /// A grid of NX,NY,NZ cells over the domain (HDF5 + XDMF).
+        #[arg(long, value_name = "NX,NY,NZ", conflicts_with = "profile")]
+        grid: Option<String>,
+        /// A profile along x, y or z: the fields averaged over the other two axes (CSV).
+        #[arg(long, value_name = "AXIS")]
+        profile: Option<String>,
+        /// Points of a profile (default 100).
+        #[arg(long, value_name = "N")]
+        points: Option<usize>,
+        /// First snapshot time used (s).
+        #[arg(long, value_name = "T0", allow_negative_numbers = true)]
+        from: Option<f64>,
+        /// Last snapshot time used (s).
+        #[arg(long, value_name = "T1", allow_negative_numbers = true)]
+        to: Option<f64>,
+        /// Output folder (default: the run's folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
     /// Write a case's initial particles as CSV (id,x,y,z,radius,vx,vy,vz), for the other engines;
@@ -211,7 +243,26 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             Ok(ExitCode::SUCCESS)
         }
         // the commands that only write files: under mpirun, rank 0 writes them once
-        Cmd::Export { .. } | Cmd::Meshes { .. } | Cmd::Cloud { .. } if !comm.is_root() => Ok(ExitCode::SUCCESS),
+        Cmd::Export { .. } | Cmd::Meshes { .. } | Cmd::Cloud { .. } | Cmd::Fields { .. } if !comm.is_root() => Ok(ExitCode::SUCCESS),
+        Cmd::Fields { run, kernel, width, grid, profile, points, from, to, out } => {
+            let grid = grid
+                .map(|g| {
+                    let v: Vec<usize> = g.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+                    <[usize; 3]>::try_from(v).map_err(|_| TalusError::Input(format!("--grid {g}: must be three whole numbers NX,NY,NZ")))
+                })
+                .transpose()?;
+            let (k, pts) = talus::fields::plan(&kernel, width, profile.as_deref(), grid, points)
+                .map_err(|(key, v, why)| TalusError::Input(format!("--{key} {v}: {why}")))?;
+            let r = talus::fields::from_snapshots(&run, k, pts, from, to)?;
+            for w in &r.warnings {
+                eprintln!("talus: warning: {w}");
+            }
+            let out = out.unwrap_or_else(|| if run.is_dir() { run.clone() } else { run.parent().map(|p| p.to_path_buf()).unwrap_or_default() });
+            std::fs::create_dir_all(&out).map_err(|e| TalusError::io(format!("creating {}", out.display()), e))?;
+            let f = r.fields.write_to(&out)?;
+            println!("wrote {} ({} snapshots from t = {:.6e} s to {:.6e} s, {} contacts in the last)", f.display(), r.fields.samples, r.first, r.last, r.contacts);
+            Ok(ExitCode::SUCCESS)
+        }
         Cmd::Export { case, to, out, sets, inserted } => {
             let target = talus::export::Target::parse(&to)?;
             let c = Case::load_with(&case, &sets)?;

@@ -130,6 +130,10 @@ pub struct NeighborList {
     /// near the other at their image's place.
     #[serde(skip)]
     pub wall_image: Vec<[i32; 3]>,
+    /// The wall contacts of the last force sweep, where it keeps them
+    /// (`SweepSettings::record_walls`; else empty).
+    #[serde(skip)]
+    pub wall_records: Vec<crate::forces::WallContact>,
     /// Each wall candidate's rolling spring torque (as `pair_roll`).
     #[serde(default)]
     pub wall_roll: Vec<Vec3>,

@@ -200,8 +200,9 @@ impl SnapshotLog {
     /// Gather every particle and let rank 0 write a snapshot (a collective).
     pub fn write(&mut self, sim: &Simulation) -> Result<(), TalusError> {
         let (p, _) = sim.parallel().gather_particles(sim.particles(), &sim.state().gear);
+        let contacts = sim.case().output.contacts.then(|| sim.all_contacts());
         let r = match self.snaps.as_mut() {
-            Some(s) => s.write(sim.state(), &p),
+            Some(s) => s.write(sim.state(), &p, contacts.as_deref()),
             None => Ok(()),
         };
         sim.parallel().collective(r)

@@ -229,8 +229,8 @@ impl Snapshots {
     /// ones are appended after the ones kept (the XDMF index is rewritten to
     /// match). A file HDF5 cannot open (a kill in the middle of a write) is
     /// kept aside as `snapshots.h5.damaged` with a warning, and a new one begun.
-    pub fn create(dir: &Path, resume_step: Option<u64>, dt: f64, domain: (Vec3, Vec3), two_d: bool) -> Result<Snapshots, TalusError> {
-        let (lo, hi) = domain;
+    pub fn create(dir: &Path, resume_step: Option<u64>, dt: f64, domain: crate::fields::Domain, two_d: bool) -> Result<Snapshots, TalusError> {
+        let (lo, hi) = (domain.lo, domain.hi);
         let h5 = dir.join("snapshots.h5");
         let xdmf = dir.join("snapshots.xdmf");
         if let (Some(step), true) = (resume_step, h5.exists()) {
@@ -272,11 +272,18 @@ impl Snapshots {
         }
         let file = hdf5_metno::File::create(&h5)
             .map_err(|e| TalusError::Run(format!("cannot create HDF5 file {}: {e}", h5.display())))?;
+        // the domain, which `talus fields` reads
+        let err = |e: hdf5_metno::Error| TalusError::Run(format!("writing {}: {e}", h5.display()));
+        let per = domain.periodic.map(|b| b as u8 as f64);
+        for (name, v) in [("domain_lo", [lo.x, lo.y, lo.z]), ("domain_hi", [hi.x, hi.y, hi.z]), ("periodic", per)] {
+            file.new_attr::<f64>().shape(3).create(name).map_err(err)?.write_raw(&v).map_err(err)?;
+        }
         Ok(Snapshots { h5, xdmf, file, entries: Vec::new(), lo, hi, two_d })
     }
 
     /// Write every particle (gathered from all ranks, in id order) as one snapshot.
-    pub fn write(&mut self, st: &State, p: &Particles) -> Result<(), TalusError> {
+    /// With `contacts`, the snapshot carries them too (group `contacts`).
+    pub fn write(&mut self, st: &State, p: &Particles, contacts: Option<&[crate::fields::ContactRecord]>) -> Result<(), TalusError> {
         let name = format!("step_{:09}", st.step);
         let err = |e: hdf5_metno::Error| TalusError::Run(format!("writing {}: {e}", self.h5.display()));
         let g = self.file.create_group(&name).map_err(err)?;
@@ -287,6 +294,10 @@ impl Snapshots {
             g.new_dataset::<f64>().shape((n, 3)).create(label).map_err(err)?.write_raw(&data).map_err(err)?;
         }
         g.new_dataset::<f64>().shape(n).create("radius").map_err(err)?.write_raw(&p.radius).map_err(err)?;
+        g.new_dataset::<f64>().shape(n).create("mass").map_err(err)?.write_raw(&p.mass).map_err(err)?;
+        if let Some(c) = contacts {
+            crate::fields::snapshots::write_contacts(&g, c).map_err(err)?;
+        }
         g.new_dataset::<u64>().shape(n).create("id").map_err(err)?.write_raw(&p.id).map_err(err)?;
         let mut walls = Vec::new();
         let wg = g.create_group("walls").map_err(err)?;

@@ -79,8 +79,7 @@ fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Re
         obs.push(Box::new(sim.parallel().collective(log)?));
     }
     if let Some(iv) = sim.case().output.snapshot_interval {
-        let d = &sim.case().simulation.domain;
-        let domain = (crate::dim::Vec3::from(d.lo), crate::dim::Vec3::from(d.hi));
+        let domain = sim.fields_domain();
         let two_d = sim.case().simulation.dimension == crate::dim::Dimension::Two;
         let snaps = if root { Some(Snapshots::create(out, resume, sim.dt(), domain, two_d)) } else { None };
         let mut snaps = SnapshotLog::new(sim.parallel().collective(snaps.transpose())?, iv);
@@ -88,6 +87,9 @@ fn run_observers(sim: &mut Simulation, out: Option<&Path>, progress: bool) -> Re
             snaps.write(sim)?;
         }
         obs.push(Box::new(snaps));
+    }
+    if let Some(f) = crate::fields::live::FieldsLog::create(sim, out, resume.is_some())? {
+        obs.push(Box::new(f));
     }
     if let Some(iv) = sim.case().output.checkpoint_interval {
         obs.push(Box::new(Checkpoints::new(out, iv)));

@@ -150,6 +150,7 @@ impl Simulation {
                 dt,
                 grain: usize::MAX,
                 period,
+                record_walls: case.output.contacts || case.output.fields.is_some(),
             },
             integrator: s.integrator,
             domain,
@@ -691,6 +692,87 @@ impl Simulation {
     /// Full records of the given particles, wherever they are owned (a collective).
     pub fn tracked(&self, ids: &[u64]) -> Vec<Option<Record>> {
         self.par.gather_ids(&self.state.p, ids)
+    }
+
+    /// This rank's contacts as the continuum fields' stress needs them:
+    /// every touching pair whose lower id it owns and every wall contact of
+    /// its particles, at the last force sweep (wall contacts only where the
+    /// case asks for contacts or fields: `output.contacts`, `[output.fields]`).
+    pub fn contact_records(&self) -> Vec<crate::fields::ContactRecord> {
+        let (p, nl) = (&self.state.p, &self.state.nl);
+        let period = self.set.sweep.period;
+        let n_own = p.owned();
+        let mut out = Vec::new();
+        for (k, &(a, b)) in nl.pairs.iter().enumerate() {
+            let (a, b) = (a as usize, b as usize);
+            if a >= n_own || !nl.pair_touch.get(k).copied().unwrap_or(false) {
+                continue;
+            }
+            let mut d = p.pos[a] - p.pos[b];
+            if !p.image.is_empty() {
+                d += crate::particles::image_shift(&[p.image[a][0] - p.image[b][0], p.image[a][1] - p.image[b][1], p.image[a][2] - p.image[b][2]], &period);
+            }
+            let share = p.radius[a] / (p.radius[a] + p.radius[b]);
+            out.push(crate::fields::ContactRecord {
+                a: p.id[a],
+                partner: p.id[b],
+                wall: false,
+                force: nl.pair_out[k].force,
+                point: p.pos[a] - d * share,
+                centre: p.pos[a],
+                branch: d,
+            });
+        }
+        for w in &nl.wall_records {
+            let i = w.particle as usize;
+            out.push(crate::fields::ContactRecord {
+                a: p.id[i],
+                partner: w.wall as u64,
+                wall: true,
+                force: w.force,
+                point: w.point,
+                centre: w.centre,
+                branch: w.centre - w.point,
+            });
+        }
+        out
+    }
+
+    /// Every rank's contacts ([`Simulation::contact_records`]) on every rank,
+    /// in order of (particle, wall or not, partner, point) (a collective).
+    pub fn all_contacts(&self) -> Vec<crate::fields::ContactRecord> {
+        let mut all = crate::parallel::all_gather(&self.par.comm, &self.contact_records());
+        all.sort_by(|x, y| {
+            (x.a, x.wall, x.partner)
+                .cmp(&(y.a, y.wall, y.partner))
+                .then(x.point.x.total_cmp(&y.point.x))
+                .then(x.point.y.total_cmp(&y.point.y))
+                .then(x.point.z.total_cmp(&y.point.z))
+        });
+        all
+    }
+
+    /// Keep every wall contact of each force sweep from now on (the contact
+    /// stress of the continuum fields needs them; a case with
+    /// `output.contacts` or `[output.fields]` keeps them from the start).
+    pub fn keep_wall_contacts(&mut self) {
+        self.set.sweep.record_walls = true;
+    }
+
+    /// The continuum fields of the present state, one sample (a collective).
+    /// Wall contacts count only where they are kept ([`Simulation::keep_wall_contacts`]).
+    pub fn fields_now(&self, kernel: crate::fields::kernel::Kernel, points: crate::fields::Points) -> Result<crate::fields::Averaged, TalusError> {
+        let mut f = crate::fields::Fields::new(kernel, points, self.fields_domain()).map_err(TalusError::Input)?;
+        let (p, _) = self.par.gather_particles(&self.state.p, &self.state.gear);
+        let contacts = self.all_contacts();
+        f.add(&crate::fields::Sample { pos: &p.pos, vel: &p.vel, mass: &p.mass, contacts: &contacts });
+        Ok(f.averaged())
+    }
+
+    /// The fields' domain: the case's box and its periodic axes.
+    pub fn fields_domain(&self) -> crate::fields::Domain {
+        let d = &self.case.simulation.domain;
+        crate::fields::Domain { lo: Vec3::from(d.lo), hi: Vec3::from(d.hi), periodic: [d.is_periodic(0), d.is_periodic(1), d.is_periodic(2)] }
     }
 
     /// Forces at the current state, once before the first step.

@@ -115,7 +115,9 @@ impl Simulation {
     fn build(case: Case) -> PyResult<Simulation> {
         let name = case.path.file_stem().map(|s| s.to_os_string()).unwrap_or_else(|| "case".into());
         let fail_dir = PathBuf::from("out").join(name);
-        let sim = talus::sim::Simulation::new(case).map_err(to_py)?;
+        let mut sim = talus::sim::Simulation::new(case).map_err(to_py)?;
+        // `fields` may be asked for at any time: the contact stress needs every wall contact
+        sim.keep_wall_contacts();
         Ok(Simulation { sim, runner: None, callbacks: Vec::new(), last: None, fail_dir })
     }
 
@@ -360,6 +362,45 @@ impl Simulation {
         let runner = self.runner.as_mut().expect("a runner");
         let s = runner.summary(&mut self.sim).map_err(to_py)?;
         json_to_py(py, &s)
+    }
+
+    /// Continuum fields of the present state (coarse-grained; as `talus
+    /// fields` computes from one snapshot): a dict of numpy arrays, one row
+    /// per point: "at" (m, P x 3), "density" (kg/m^3, P), "velocity" (m/s,
+    /// P x 3), "stress", "kinetic_stress", "contact_stress" (Pa, P x 3 x 3,
+    /// compression positive; [a, b] is the force's a component times the
+    /// branch's b component). `profile="x"|"y"|"z"` (with `points`, default
+    /// 100) averages over the other two axes; `grid=(nx, ny, nz)` gives the
+    /// cell centres, x fastest. `kernel`: "gauss" (width: standard deviation,
+    /// cut off at 3 widths) or "lucy" (width: radius).
+    #[pyo3(signature = (width, kernel="gauss", profile=None, grid=None, points=None))]
+    fn fields<'py>(
+        &self,
+        py: Python<'py>,
+        width: f64,
+        kernel: &str,
+        profile: Option<&str>,
+        grid: Option<[usize; 3]>,
+        points: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (k, pts) = talus::fields::plan(kernel, width, profile, grid, points)
+            .map_err(|(key, v, why)| InputError::new_err(format!("fields({key} = {v}): {why}")))?;
+        let f = self.sim.fields_now(k, pts).map_err(to_py)?;
+        let n = f.density.len();
+        let d = PyDict::new(py);
+        d.set_item("at", vec3s(py, f.at.iter().copied()))?;
+        d.set_item("density", f.density.clone().into_pyarray(py))?;
+        d.set_item("velocity", vec3s(py, f.velocity.iter().copied()))?;
+        let tensor = |get: &dyn Fn(usize, usize) -> f64| -> Vec<f64> { (0..n).flat_map(|i| (0..9).map(move |q| (i, q))).map(|(i, q)| get(i, q)).collect() };
+        for (name, data) in [
+            ("stress", tensor(&|i, q| f.kinetic[i][q] + f.contact[i][q])),
+            ("kinetic_stress", tensor(&|i, q| f.kinetic[i][q])),
+            ("contact_stress", tensor(&|i, q| f.contact[i][q])),
+        ] {
+            let a = numpy::ndarray::Array3::from_shape_vec((n, 3, 3), data).expect("n x 3 x 3");
+            d.set_item(name, a.into_pyarray(py))?;
+        }
+        Ok(d)
     }
 
     /// Hash of every particle's id, position, velocity and spin (hex string):

@@ -2,7 +2,7 @@
 method and function the package `talus` exports, with its documentation."""
 
 import os
-from typing import Any, Callable, Iterator, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -71,6 +71,23 @@ class Simulation:
         """The summary as a dict (the keys of summary.json): analysis figures,
         counts, times, throughput, state_hash. After run, that run's summary;
         otherwise the figures so far."""
+    def fields(
+        self,
+        width: float,
+        kernel: str = "gauss",
+        profile: Optional[str] = None,
+        grid: Optional[Tuple[int, int, int]] = None,
+        points: Optional[int] = None,
+    ) -> Dict[str, npt.NDArray[np.float64]]:
+        """Continuum fields of the present state (coarse-grained, as `talus
+        fields` computes them from one snapshot): a dict of arrays, a row per
+        point: "at" (m, P x 3), "density" (kg/m^3, P), "velocity" (m/s, P x 3),
+        "stress", "kinetic_stress", "contact_stress" (Pa, P x 3 x 3,
+        compression positive; [a, b] is the force's a component times the
+        branch's b component). profile="x"|"y"|"z" (points, default 100)
+        averages over the other two axes; grid=(nx, ny, nz) gives the cell
+        centres, x fastest. kernel "gauss" (width: standard deviation, cut off
+        at 3 widths) or "lucy" (width: radius)."""
     def state_hash(self) -> str:
         """Hash of every particle's id, position, velocity and spin (16 hex
         digits), the same as `talus run` reports for the same state."""
