@@ -12,7 +12,9 @@ with one replica column by column, compare/case.py; `python -m compare CASE.toml
 (compare/regress.py); `python -m compare window`: the H1-paper discharge window;
 `python -m compare ab --baseline REV`: this tree's talus against a baseline commit, the
 runs alternated in one session (compare/ab.py); `python -m compare benchmarks page`: docs/benchmarks.md
-from the recorded results (compare/benchpage.py).
+from the recorded results (compare/benchpage.py); `python -m compare validation [--out docs/validation.md]
+[--compare-dir out/compare] [--cargo-profile ci|release] [--no-cargo]`: docs/validation.md, every closed-form
+test (run by cargo) and every comparison in the compare dir with its current figure (compare/validation.py).
 Runs the engines, computes every figure from their raw time series by one piece of
 code, prints them side by side, writes report.md, figures.json and PNG plots into
 DIR, and exits 1 when a figure is outside its tolerance (tolerances.py).
@@ -144,6 +146,9 @@ def main(argv=None):
     if argv[:1] == ["ab"]:  # this tree's talus against a baseline commit: compare/ab.py
         from . import ab
         return ab.main(argv[1:])
+    if argv[:1] == ["validation"]:  # docs/validation.md from the tests and comparisons: compare/validation.py
+        from . import validation
+        return validation.main(argv[1:])
     if argv[:1] == ["regress"]:  # talus against its golden file: compare/regress.py
         from . import regress
         return regress.main(argv[1:])

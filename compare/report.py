@@ -1,4 +1,6 @@
 """Markdown report and PNG plots."""
+import json
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -13,6 +15,15 @@ own convention (the Coulomb cap on the elastic normal force)."""
 
 
 def write_sc_report(out, setup, model, results, failures):
+    """report.md and its plot, and results.json (the results and failures, for
+    docs/validation.md: compare/validation.py)."""
+    from . import tolerances
+    table = dict(tolerances.SC)
+    if setup == "SC-oblique":
+        table.update(tolerances.SC_OBLIQUE)
+    (out / "results.json").write_text(json.dumps(
+        {"setup": setup, "model": model, "tolerances": table, "results": results, "failures": failures},
+        indent=1, default=float) + "\n")
     lines = [f"# {setup}, model {model}", "", CONVENTION_NOTE, ""]
     for row in results:
         names = list(row["engines"])

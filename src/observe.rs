@@ -214,6 +214,10 @@ impl Observer for SnapshotLog {
         if crossed(t_prev, sim.time(), self.interval, sim.dt()) {
             self.write(sim)?;
         }
+        // a snapshot after the next step: its sweep keeps the wall contacts
+        if sim.case().output.contacts && crossed(sim.time(), sim.time() + sim.dt(), self.interval, sim.dt()) {
+            sim.want_wall_contacts();
+        }
         Ok(())
     }
 }

@@ -92,6 +92,10 @@ pub struct Simulation {
     insert_pending: bool,
     /// The particles inserted since the run's observers last took them.
     inserted_log: Vec<crate::insert::Inserted>,
+    /// Keep every wall contact at every force sweep (`keep_wall_contacts`).
+    keep_walls: bool,
+    /// Keep the wall contacts of the next step's sweep (an output is due after it).
+    walls_wanted: bool,
 }
 
 /// The fewest owned particles whose integrator halves run on the rank's
@@ -227,7 +231,7 @@ impl Simulation {
             set.sweep.grain = crate::forces::MIN_LEN;
             par.pool = Some(pool.clone());
         }
-        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool, insert_pending: false, inserted_log: Vec::new() })
+        Ok(Simulation { case, set, table, state, par, energies: (0.0, 0.0), next_reorder: 0, pool, insert_pending: false, inserted_log: Vec::new(), keep_walls: false, walls_wanted: false })
     }
 
     /// Threads this rank computes forces on.
@@ -696,8 +700,10 @@ impl Simulation {
 
     /// This rank's contacts as the continuum fields' stress needs them:
     /// every touching pair whose lower id it owns and every wall contact of
-    /// its particles, at the last force sweep (wall contacts only where the
-    /// case asks for contacts or fields: `output.contacts`, `[output.fields]`).
+    /// its particles, at the last force sweep (wall contacts only where they
+    /// were kept: [`Simulation::want_wall_contacts`] before the step, or
+    /// [`Simulation::keep_wall_contacts`]; the first sweep keeps them where the
+    /// case asks for contacts or fields).
     pub fn contact_records(&self) -> Vec<crate::fields::ContactRecord> {
         let (p, nl) = (&self.state.p, &self.state.nl);
         let period = self.set.sweep.period;
@@ -756,7 +762,15 @@ impl Simulation {
     /// stress of the continuum fields needs them; a case with
     /// `output.contacts` or `[output.fields]` keeps them from the start).
     pub fn keep_wall_contacts(&mut self) {
+        self.keep_walls = true;
         self.set.sweep.record_walls = true;
+    }
+
+    /// Keep the wall contacts of the next step's force sweep (an observer
+    /// that writes contacts after that step asks for them; keeping them at
+    /// every step would cost the sweep a record per wall contact).
+    pub fn want_wall_contacts(&mut self) {
+        self.walls_wanted = true;
     }
 
     /// The continuum fields of the present state, one sample (a collective).
@@ -794,6 +808,7 @@ impl Simulation {
     /// Advance one time step.
     pub fn step(&mut self) -> Result<(), TalusError> {
         self.prepare()?;
+        self.set.sweep.record_walls = self.keep_walls || std::mem::take(&mut self.walls_wanted);
         let t0 = Instant::now();
         let comm0 = self.par.timers.comm_s;
         let dt = self.set.dt;

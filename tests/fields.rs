@@ -13,6 +13,8 @@ use talus::sim::Simulation;
 fn run(text: &str, steps: usize) -> Simulation {
     let case = Case::parse(text, Path::new("fields-test.toml")).unwrap_or_else(|e| panic!("{e}"));
     let mut sim = Simulation::new(case).unwrap_or_else(|e| panic!("{e}"));
+    // stepped here, not by a run's observers: keep the wall contacts of every step
+    sim.keep_wall_contacts();
     sim.prepare().unwrap();
     for _ in 0..steps {
         sim.step().unwrap_or_else(|e| panic!("{e}"));

@@ -32,6 +32,11 @@ impl FieldsLog {
         Ok(Some(FieldsLog { fields, dir: dir.to_path_buf(), interval: f.interval, from: f.from.unwrap_or(0.0), to: f.to.unwrap_or(f64::INFINITY) }))
     }
 
+    /// Whether a sample falls in the step from `t_prev` to `t`.
+    fn due(&self, t_prev: f64, t: f64, dt: f64) -> bool {
+        t + 0.5 * dt >= self.from && t - 0.5 * dt <= self.to && crossed(t_prev, t, self.interval, dt)
+    }
+
     /// Take a sample (a collective) and write the averages so far (rank 0).
     pub fn sample(&mut self, sim: &Simulation) -> Result<(), TalusError> {
         let (p, _) = sim.parallel().gather_particles(sim.particles(), &sim.state().gear);
@@ -48,9 +53,13 @@ impl FieldsLog {
 
 impl Observer for FieldsLog {
     fn after_step(&mut self, sim: &mut Simulation, t_prev: f64) -> Result<(), TalusError> {
-        let t = sim.time();
-        if t + 0.5 * sim.dt() >= self.from && t - 0.5 * sim.dt() <= self.to && crossed(t_prev, t, self.interval, sim.dt()) {
+        let (t, dt) = (sim.time(), sim.dt());
+        if self.due(t_prev, t, dt) {
             self.sample(sim)?;
+        }
+        // a sample after the next step: its sweep keeps the wall contacts
+        if self.due(t, t + dt, dt) {
+            sim.want_wall_contacts();
         }
         Ok(())
     }

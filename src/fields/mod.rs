@@ -27,6 +27,7 @@ pub mod write;
 
 use crate::dim::Vec3;
 use kernel::Kernel;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// A contact as the stress needs it: the force on particle `a`, its contact
@@ -130,15 +131,48 @@ pub struct Fields {
     pub points: Points,
     pub domain: Domain,
     pub samples: usize,
-    /// Per point: sum over samples of density (kg/m^3).
-    density: Vec<f64>,
-    /// momentum density (kg/m^2/s)
-    momentum: Vec<[f64; 3]>,
-    /// sum m v_a v_b phi (Pa), row-major 3x3
-    flux: Vec<[f64; 9]>,
-    /// sum f_a b_b psi (Pa), row-major 3x3
-    contact: Vec<[f64; 9]>,
+    /// Per point, summed over samples.
+    acc: Vec<Acc>,
 }
+
+/// One point's sums over samples.
+#[derive(Clone, Copy, Debug, Default)]
+struct Acc {
+    /// kg/m^3
+    density: f64,
+    /// kg/m^2/s
+    momentum: [f64; 3],
+    /// sum m v_a v_b phi (Pa), row-major 3x3
+    flux: [f64; 9],
+    /// sum f_a b_b psi (Pa), row-major 3x3
+    contact: [f64; 9],
+}
+
+impl Acc {
+    #[inline]
+    fn particle(&mut self, w: f64, v: &Vec3) {
+        self.density += w;
+        for a in 0..3 {
+            let wv = w * v[a];
+            self.momentum[a] += wv;
+            for b in 0..3 {
+                self.flux[3 * a + b] += wv * v[b];
+            }
+        }
+    }
+
+    #[inline]
+    fn contact(&mut self, fb: &[f64; 9], w: f64) {
+        for q in 0..9 {
+            self.contact[q] += fb[q] * w;
+        }
+    }
+}
+
+/// Points a thread takes at once: each point's sums take the samples'
+/// particles and contacts in their order, whichever thread computes it, so
+/// the fields are the same bits on any thread count.
+const CHUNK: usize = 8;
 
 /// The time-averaged fields at each point.
 #[derive(Clone, Debug, Default)]
@@ -186,10 +220,7 @@ impl Fields {
             points,
             domain,
             samples: 0,
-            density: vec![0.0; count],
-            momentum: vec![[0.0; 3]; count],
-            flux: vec![[0.0; 9]; count],
-            contact: vec![[0.0; 9]; count],
+            acc: vec![Acc::default(); count],
         })
     }
 
@@ -241,16 +272,17 @@ impl Fields {
         let period = d.period(axis);
         let k = self.kernel;
         let cut = k.cutoff();
-        // the points within reach of [x0, x1] (with their images across a periodic axis)
-        let reach = |x0: f64, x1: f64, f: &mut dyn FnMut(usize, f64)| {
+        // calls f(point, its coordinate as seen from [x0, x1]) for the points
+        // of first..end within reach of [x0, x1] (and of its images across a periodic axis)
+        let reach = |x0: f64, x1: f64, first: usize, end: usize, f: &mut dyn FnMut(usize, f64)| {
             let shifts: &[f64] = match period {
                 Some(l) => &[-l, 0.0, l],
                 None => &[0.0],
             };
             for &sh in shifts {
                 let (a, b) = (x0.min(x1) + sh - cut, x0.max(x1) + sh + cut);
-                let i0 = (((a - lo) / h - 0.5).floor().max(0.0)) as usize;
-                let i1 = (((b - lo) / h - 0.5).ceil()).min(n as f64 - 1.0);
+                let i0 = (((a - lo) / h - 0.5).floor().max(first as f64)) as usize;
+                let i1 = (((b - lo) / h - 0.5).ceil()).min(end as f64 - 1.0);
                 if i1 < 0.0 {
                     continue;
                 }
@@ -259,37 +291,30 @@ impl Fields {
                 }
             }
         };
-        for i in 0..s.pos.len() {
-            let (m, v, z) = (s.mass[i], s.vel[i], s.pos[i][axis]);
-            reach(z, z, &mut |p, zp| {
-                let w = m * k.phi1(zp - z) / area;
-                if w == 0.0 {
-                    return;
-                }
-                self.density[p] += w;
-                for a in 0..3 {
-                    self.momentum[p][a] += w * v[a];
-                    for b in 0..3 {
-                        self.flux[p][3 * a + b] += w * v[a] * v[b];
+        self.acc.par_chunks_mut(CHUNK).enumerate().for_each(|(c, acc)| {
+            let (first, end) = (c * CHUNK, c * CHUNK + acc.len());
+            for i in 0..s.pos.len() {
+                let (m, v, z) = (s.mass[i], &s.vel[i], s.pos[i][axis]);
+                reach(z, z, first, end, &mut |p, zp| {
+                    let w = m * k.phi1(zp - z) / area;
+                    if w != 0.0 {
+                        acc[p - first].particle(w, v);
                     }
-                }
-            });
-        }
-        for c in s.contacts {
-            // from a's centre back along the branch to the partner (or the wall's point)
-            let z0 = c.centre[axis];
-            let z1 = z0 - c.branch[axis];
-            let fb = outer(&c.force, &c.branch);
-            reach(z0, z1, &mut |p, zp| {
-                let psi = k.mean1(zp - z1, zp - z0) / area;
-                if psi == 0.0 {
-                    return;
-                }
-                for q in 0..9 {
-                    self.contact[p][q] += fb[q] * psi;
-                }
-            });
-        }
+                });
+            }
+            for c in s.contacts {
+                // from a's centre back along the branch to the partner (or the wall's point)
+                let z0 = c.centre[axis];
+                let z1 = z0 - c.branch[axis];
+                let fb = outer(&c.force, &c.branch);
+                reach(z0, z1, first, end, &mut |p, zp| {
+                    let psi = k.mean1(zp - z1, zp - z0) / area;
+                    if psi != 0.0 {
+                        acc[p - first].contact(&fb, psi);
+                    }
+                });
+            }
+        });
     }
 
     fn add_grid(&mut self, s: &Sample, n: [usize; 3]) {
@@ -297,8 +322,10 @@ impl Fields {
         let k = self.kernel;
         let cut = k.cutoff();
         let h = Vec3::new((d.hi.x - d.lo.x) / n[0] as f64, (d.hi.y - d.lo.y) / n[1] as f64, (d.hi.z - d.lo.z) / n[2] as f64);
-        // calls f(point index, kernel value) for every grid point within the cutoff of x
-        let around = |x: Vec3, f: &mut dyn FnMut(usize, f64)| {
+        let slab = n[0] * n[1];
+        // calls f(point - first, kernel value) for every grid point of the
+        // slabs z0..z1 within the cutoff of x
+        let around = |x: Vec3, z0: usize, z1: usize, f: &mut dyn FnMut(usize, f64)| {
             let mut range = [(0i64, 0i64); 3];
             for a in 0..3 {
                 let i0 = ((x[a] - cut - d.lo[a]) / h[a] - 0.5).floor() as i64;
@@ -306,79 +333,79 @@ impl Fields {
                 range[a] = if d.periodic[a] { (i0, i1.min(i0 + n[a] as i64 - 1)) } else { (i0.max(0), i1.min(n[a] as i64 - 1)) };
             }
             for iz in range[2].0..=range[2].1 {
+                let cz = iz.rem_euclid(n[2] as i64) as usize;
+                if cz < z0 || cz >= z1 {
+                    continue;
+                }
+                let dz = d.lo.z + (iz as f64 + 0.5) * h.z - x.z;
                 for iy in range[1].0..=range[1].1 {
+                    let cy = iy.rem_euclid(n[1] as i64) as usize;
+                    let dy = d.lo.y + (iy as f64 + 0.5) * h.y - x.y;
                     for ix in range[0].0..=range[0].1 {
-                        let idx = [ix, iy, iz];
-                        let mut r2 = 0.0;
-                        let mut cell = [0usize; 3];
-                        for a in 0..3 {
-                            // an index past a periodic face is the point on the other side, seen from x
-                            let c = d.lo[a] + (idx[a] as f64 + 0.5) * h[a];
-                            r2 += (c - x[a]) * (c - x[a]);
-                            cell[a] = idx[a].rem_euclid(n[a] as i64) as usize;
-                        }
-                        let w = k.phi3(r2);
+                        // an index past a periodic face is the point on the other side, seen from x
+                        let cx = ix.rem_euclid(n[0] as i64) as usize;
+                        let dx = d.lo.x + (ix as f64 + 0.5) * h.x - x.x;
+                        let w = k.phi3(dx * dx + dy * dy + dz * dz);
                         if w != 0.0 {
-                            f(cell[0] + n[0] * (cell[1] + n[1] * cell[2]), w);
+                            f(cx + n[0] * (cy + n[1] * (cz - z0)), w);
                         }
                     }
                 }
             }
         };
-        for i in 0..s.pos.len() {
-            let (m, v) = (s.mass[i], s.vel[i]);
-            around(s.pos[i], &mut |p, phi| {
-                let w = m * phi;
-                self.density[p] += w;
-                for a in 0..3 {
-                    self.momentum[p][a] += w * v[a];
-                    for b in 0..3 {
-                        self.flux[p][3 * a + b] += w * v[a] * v[b];
-                    }
-                }
-            });
-        }
+        // whether [za, zb] (widened by the cutoff) reaches the slabs z0..z1
+        let near = |za: f64, zb: f64, z0: usize, z1: usize| {
+            d.periodic[2] || (za.max(zb) + cut >= d.lo.z + z0 as f64 * h.z && za.min(zb) - cut <= d.lo.z + z1 as f64 * h.z)
+        };
         // the line integral along each branch: Gauss-Legendre, three points
         // on each piece no longer than a fifth of the kernel's width
         const GL: [(f64, f64); 3] = [(-0.774_596_669_241_483_4, 5.0 / 18.0), (0.0, 8.0 / 18.0), (0.774_596_669_241_483_4, 5.0 / 18.0)];
-        for c in s.contacts {
-            let x0 = c.centre;
-            let fb = outer(&c.force, &c.branch);
-            let pieces = ((c.branch.norm() / (0.2 * k.width())).ceil() as usize).max(1);
-            for piece in 0..pieces {
-                for &(t, wt) in &GL {
-                    let u = (piece as f64 + 0.5 + 0.5 * t) / pieces as f64;
-                    let x = x0 - c.branch * u;
-                    let weight = wt / pieces as f64;
-                    around(x, &mut |p, phi| {
-                        for q in 0..9 {
-                            self.contact[p][q] += fb[q] * phi * weight;
-                        }
-                    });
+        self.acc.par_chunks_mut(slab).enumerate().for_each(|(z0, acc)| {
+            let z1 = z0 + 1;
+            for i in 0..s.pos.len() {
+                if !near(s.pos[i].z, s.pos[i].z, z0, z1) {
+                    continue;
+                }
+                let (m, v) = (s.mass[i], &s.vel[i]);
+                around(s.pos[i], z0, z1, &mut |p, phi| acc[p].particle(m * phi, v));
+            }
+            for c in s.contacts {
+                let x0 = c.centre;
+                if !near(x0.z, x0.z - c.branch.z, z0, z1) {
+                    continue;
+                }
+                let fb = outer(&c.force, &c.branch);
+                let pieces = ((c.branch.norm() / (0.2 * k.width())).ceil() as usize).max(1);
+                for piece in 0..pieces {
+                    for &(t, wt) in &GL {
+                        let u = (piece as f64 + 0.5 + 0.5 * t) / pieces as f64;
+                        let x = x0 - c.branch * u;
+                        let weight = wt / pieces as f64;
+                        around(x, z0, z1, &mut |p, phi| acc[p].contact(&fb, phi * weight));
+                    }
                 }
             }
-        }
+        });
     }
 
     /// The fields averaged over the samples so far.
     pub fn averaged(&self) -> Averaged {
         let m = self.samples.max(1) as f64;
-        let n = self.density.len();
         let mut out = Averaged { at: self.coordinates(), ..Default::default() };
-        for i in 0..n {
-            let rho = self.density[i] / m;
-            let p: Vec3 = Vec3::new(self.momentum[i][0], self.momentum[i][1], self.momentum[i][2]) / m;
+        for a in &self.acc {
+            let rho = a.density / m;
+            let p = Vec3::new(a.momentum[0], a.momentum[1], a.momentum[2]) / m;
             let v = if rho > 0.0 { p / rho } else { Vec3::zeros() };
             let mut kin = [0.0; 9];
-            for a in 0..3 {
-                for b in 0..3 {
-                    kin[3 * a + b] = self.flux[i][3 * a + b] / m - if rho > 0.0 { p[a] * p[b] / rho } else { 0.0 };
+            for i in 0..3 {
+                for j in 0..3 {
+                    kin[3 * i + j] = a.flux[3 * i + j] / m - if rho > 0.0 { p[i] * p[j] / rho } else { 0.0 };
                 }
             }
             out.density.push(rho);
             out.velocity.push(v);
             out.kinetic.push(kin);
-            out.contact.push(self.contact[i].map(|x| x / m));
+            out.contact.push(a.contact.map(|x| x / m));
         }
         out
     }
