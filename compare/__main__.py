@@ -7,7 +7,8 @@ bed: talus on 1 and 2 threads, LAMMPS on 1 process and 2 ranks, LIGGGHTS; compar
 over the rounds (compare/rounds.py).
 `python -m compare CASE.toml [--engines talus,liggghts|yade|lammps] [--replicas K] [--perturb KEY=VALUE]`: any
 case, exported to the reference and compared as ensembles of K replicas (compare/ensemble.py;
-with one replica column by column, compare/case.py; `python -m compare CASE.toml --help`);
+with one replica column by column, compare/case.py; `--fields z` also compares the continuum-field
+profiles, compare/fields.py; `python -m compare CASE.toml --help`);
 `python -m compare regress CASE.toml --golden FILE`: talus against its golden file
 (compare/regress.py); `python -m compare window`: the H1-paper discharge window;
 `python -m compare ab --baseline REV`: this tree's talus against a baseline commit, the

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import ensemble
+from . import ensemble, fields
 from .engines import TALUS, EngineError, check_versions
 from .regress import DEFAULTS
 
@@ -510,6 +510,15 @@ def main(argv=None):
     ap.add_argument("--reuse", action="store_true",
                     help="read the runs already finished in the output folder with the same command line instead of running them again "
                          "(a long comparison can be finished in parts; an edited case file or a rebuilt talus is not detected)")
+    ap.add_argument("--fields", metavar="AXIS", choices=["x", "y", "z"],
+                    help="also compare continuum fields: each engine's profile along AXIS (talus fields: density, "
+                         "velocity, stress), from snapshots with contacts (the case's output.snapshot_interval; "
+                         "output.contacts is set); LAMMPS only for now (compare/fields.py)")
+    ap.add_argument("--fields-width", type=float, metavar="W",
+                    help="the fields' Gaussian kernel width (m; default the mean particle diameter)")
+    ap.add_argument("--fields-from", type=float, metavar="T0", help="average the snapshots from T0 (s) on (default all)")
+    ap.add_argument("--fields-tolerance", type=float, default=0.05, metavar="REL",
+                    help="largest difference of a profile column from talus's, relative to its kind's scale (default 0.05)")
     a = ap.parse_args(argv)
     global REUSE
     SETS[:] = a.set
@@ -538,6 +547,16 @@ def main(argv=None):
     if k_reps < 1:
         print(f"compare: --replicas {k_reps}: at least 1", file=sys.stderr)
         return 2
+    if a.fields:
+        bad = [r for r in refs if r != "lammps"]
+        if bad or k_reps > 1:
+            print(f"compare: --fields: only single runs against LAMMPS write their contacts yet (not {', '.join(bad) or 'ensembles'}); "
+                  "use --engines talus,lammps --replicas 1", file=sys.stderr)
+            return 2
+        if not case.get("output", {}).get("snapshot_interval") and not any(x.startswith("output.snapshot_interval=") for x in a.set):
+            print(f"compare: --fields: {a.case} has no output.snapshot_interval (the fields are made from snapshots)", file=sys.stderr)
+            return 2
+        SETS.append("output.contacts=true")
     if k_reps > 1:
         try:
             return ensemble.compare(a.case, case, refs, tol, out, k_reps, a.perturb)
@@ -574,6 +593,19 @@ def main(argv=None):
             cross = figure_checks(fr_l, fr_y, tol) + series_checks(rs_l, rs_y, tol)
             why = [] if a.no_explain else explain(a.case, case, cross, ts_l, ft_l, rs_y, fr_y, summary, tol, out)
             result["references"] = {"checks": cross, "explained": why}
+        if a.fields:
+            field_profiles = {}
+            for ref in refs:
+                conv = CONVENTION[ref]
+                tdir = out / f"talus-{conv}"
+                width = a.fields_width or fields.mean_diameter(tdir)
+                g = math.sqrt(sum(x * x for x in case.get("simulation", {}).get("gravity", [0.0, 0.0, 0.0])))
+                tp = fields.profile(tdir, a.fields, width, out / "fields" / f"talus-{conv}", t0=a.fields_from)
+                rp = fields.profile(fields.lammps_snapshots(out / ref, out / ref / "snapshots.h5"), a.fields, width,
+                                    out / "fields" / ref, t0=a.fields_from)
+                field_profiles[f"talus[{conv}]"], field_profiles[ref] = tp, rp
+                result["checks"][ref] += fields.field_checks(tp, rp, a.fields_tolerance, a.fields, math.sqrt(g * width))
+            fields.plot(out, a.case.stem, a.fields, field_profiles)
     except EngineError as e:
         print(f"compare: {e}", file=sys.stderr)
         return 2

@@ -66,6 +66,11 @@ for c in SC-wall SC-pair SC-oblique SC-cohesive-dmt SC-cohesive-jkr SC-mixed-law
     || { cat "$out-case-$c-lammps.log"; echo "compare cases/$c.toml (lammps): FAILED"; exit 1; }
   passed "compare cases/$c.toml (talus,lammps, exported): within tolerance"
 done
+# continuum fields: a settled bed's density, velocity and stress profiles made by talus fields
+# from talus's snapshots and from LAMMPS's particle and contact dumps, compared (compare/fields.py)
+python3 -m compare cases/settled-bed.toml --engines talus,lammps --fields z --fields-from 0.3 --out "$out/case-settled-bed-fields" > "$out-case-settled-bed-fields.log" 2>&1 \
+  || { cat "$out-case-settled-bed-fields.log"; echo "compare cases/settled-bed.toml --fields z: FAILED"; exit 1; }
+passed "compare cases/settled-bed.toml --fields z (talus,lammps, exported): within tolerance"
 # the dumbbell bed: YADE only (LIGGGHTS-PUBLIC 3.8 has no multisphere)
 python3 -m compare cases/drag-d1-bed1.toml --engines talus,yade --out "$out/case-drag-d1-bed1" > "$out-case-drag-d1-bed1.log" 2>&1 \
   || { cat "$out-case-drag-d1-bed1.log"; echo "compare cases/drag-d1-bed1.toml: FAILED"; exit 1; }

@@ -432,6 +432,10 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
         }
     }
     let every = super::probe_every(case, dt, &mut notes);
+    if let (true, Some(iv)) = (case.output.contacts, case.output.snapshot_interval) {
+        let reaches = (0..nmat).any(|a| (a..nmat).any(|b| matches!(law(a, b), Ok(Law::Jkr(_)))));
+        snapshot_dumps(w, iv, dt, &wall_fixes, reaches);
+    }
     let first = case.phases.first().map(|p| p.name.as_str()).unwrap_or("end");
     let _ = writeln!(w, "variable phase string {first}");
     let _ = writeln!(w, "thermo_style    custom {thermo}\nthermo          {every}\nthermo_modify   lost error norm no");
@@ -457,4 +461,34 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let deck = out.join("in.talus");
     std::fs::write(&deck, s).map_err(|e| io(&deck, e))?;
     Ok(Exported { files, command: "lmp -in in.talus -log log.lammps".into(), notes })
+}
+
+/// What continuum fields need from the run, at talus's snapshot times
+/// (`output.snapshot_interval` with `output.contacts`; `python3 -m compare
+/// CASE.toml --fields AXIS` reads them): every particle (id, position,
+/// velocity, radius, mass, and each wall fix's contact: flag, force on the
+/// particle, contact point) in `particles.<step>.dump`, and every pair in
+/// contact in `contacts.<step>.dump` (ids, normal and tangential force on the
+/// first, x_first - x_second with the image in contact). See
+/// docs/contacts-in-the-reference-codes.md.
+fn snapshot_dumps(w: &mut String, interval: f64, dt: f64, wall_fixes: &[(String, Vec<(usize, String)>, usize, f64)], reaches: bool) {
+    let every = ((interval / dt).round() as u64).max(1);
+    // a law that reaches beyond touching (JKR) keeps contacts apart: the type
+    // cutoff lists them, with all-zero rows for the neighbours that do not
+    // touch (the reader drops those)
+    let cutoff = if reaches { "type" } else { "radius" };
+    let _ = writeln!(w, "\n# ---- snapshots for continuum fields (every {every} steps): particles and their wall contacts, pairs in contact");
+    let _ = writeln!(w, "compute cpl all pair/local fx fy fz p1 p2 p3 p10 p11 p12 cutoff {cutoff}");
+    let _ = writeln!(w, "compute cpi all property/local patom1 patom2 cutoff {cutoff}");
+    let _ = writeln!(w, "dump contacts all local {every} contacts.*.dump c_cpi[1] c_cpi[2] c_cpl[*]");
+    let mut cols = String::from("id x y z vx vy vz radius mass");
+    for (_, ids, ..) in wall_fixes {
+        for (_, id) in ids {
+            for c in 1..=7 {
+                let _ = write!(cols, " f_{id}[{c}]");
+            }
+        }
+    }
+    let _ = writeln!(w, "dump particles all custom {every} particles.*.dump {cols}\ndump_modify particles sort id");
+    let _ = writeln!(w, "# wall fixes in the particle dump, 7 columns each (in contact, force on the particle, contact point): {}", wall_fixes.iter().flat_map(|(name, ids, ..)| ids.iter().map(move |(_, id)| format!("{id} (wall {name})"))).collect::<Vec<_>>().join(", "));
 }
