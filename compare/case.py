@@ -513,12 +513,15 @@ def main(argv=None):
     ap.add_argument("--fields", metavar="AXIS", choices=["x", "y", "z"],
                     help="also compare continuum fields: each engine's profile along AXIS (talus fields: density, "
                          "velocity, stress), from snapshots with contacts (the case's output.snapshot_interval; "
-                         "output.contacts is set); LAMMPS only for now (compare/fields.py)")
+                         "output.contacts is set); LAMMPS and YADE single runs (compare/fields.py)")
     ap.add_argument("--fields-width", type=float, metavar="W",
                     help="the fields' Gaussian kernel width (m; default the mean particle diameter)")
     ap.add_argument("--fields-from", type=float, metavar="T0", help="average the snapshots from T0 (s) on (default all)")
     ap.add_argument("--fields-tolerance", type=float, default=0.05, metavar="REL",
                     help="largest difference of a profile column from talus's, relative to its kind's scale (default 0.05)")
+    ap.add_argument("--fields-columns", metavar="COL,...",
+                    help="the profile columns checked (default all of " + ",".join(fields.COLUMNS) + "); a single run of a "
+                         "jammed bed fixes its lateral stress by its history, which only ensembles average")
     a = ap.parse_args(argv)
     global REUSE
     SETS[:] = a.set
@@ -548,10 +551,10 @@ def main(argv=None):
         print(f"compare: --replicas {k_reps}: at least 1", file=sys.stderr)
         return 2
     if a.fields:
-        bad = [r for r in refs if r != "lammps"]
+        bad = [r for r in refs if r not in ("lammps", "yade")]
         if bad or k_reps > 1:
-            print(f"compare: --fields: only single runs against LAMMPS write their contacts yet (not {', '.join(bad) or 'ensembles'}); "
-                  "use --engines talus,lammps --replicas 1", file=sys.stderr)
+            print(f"compare: --fields: only single runs against LAMMPS and YADE write their contacts yet (not {', '.join(bad) or 'ensembles'}); "
+                  "use --engines talus,lammps or talus,yade and --replicas 1", file=sys.stderr)
             return 2
         if not case.get("output", {}).get("snapshot_interval") and not any(x.startswith("output.snapshot_interval=") for x in a.set):
             print(f"compare: --fields: {a.case} has no output.snapshot_interval (the fields are made from snapshots)", file=sys.stderr)
@@ -601,10 +604,11 @@ def main(argv=None):
                 width = a.fields_width or fields.mean_diameter(tdir)
                 g = math.sqrt(sum(x * x for x in case.get("simulation", {}).get("gravity", [0.0, 0.0, 0.0])))
                 tp = fields.profile(tdir, a.fields, width, out / "fields" / f"talus-{conv}", t0=a.fields_from)
-                rp = fields.profile(fields.lammps_snapshots(out / ref, out / ref / "snapshots.h5"), a.fields, width,
+                rp = fields.profile(fields.snapshots_of(ref, out / ref, case), a.fields, width,
                                     out / "fields" / ref, t0=a.fields_from)
                 field_profiles[f"talus[{conv}]"], field_profiles[ref] = tp, rp
-                result["checks"][ref] += fields.field_checks(tp, rp, a.fields_tolerance, a.fields, math.sqrt(g * width))
+                cols = a.fields_columns.split(",") if a.fields_columns else None
+                result["checks"][ref] += fields.field_checks(tp, rp, a.fields_tolerance, a.fields, math.sqrt(g * width), cols)
             fields.plot(out, a.case.stem, a.fields, field_profiles)
     except EngineError as e:
         print(f"compare: {e}", file=sys.stderr)

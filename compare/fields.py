@@ -6,8 +6,9 @@ point, particle centre and branch vector; the domain as attributes), then `talus
 makes the same coarse-grained profile of every engine's file: the same kernel, width,
 points and snapshots, so the engines differ only by their particles and contacts.
 talus writes that file itself (`output.snapshot_interval` with `output.contacts`); a LAMMPS
-deck exported from the same case writes dumps that `lammps_snapshots` converts
-(docs/contacts-in-the-reference-codes.md says what each column is).
+deck exported from the same case writes dumps that `lammps_snapshots` converts, a YADE
+script snapshot files that `yade_snapshots` converts (docs/contacts-in-the-reference-codes.md
+says what each engine can write).
 
 A profile's column is compared as its largest difference from talus's over the points,
 relative to the scale of its kind in talus's profile (`field_checks`)."""
@@ -111,6 +112,55 @@ def lammps_snapshots(folder, out_h5):
     return out_h5
 
 
+def yade_snapshots(folder, out_h5, case):
+    """The snapshot files of an exported YADE script (snapshot.<step>.txt, written by its
+    driver between the force loop and the integrator: talus's end-of-step state) as a
+    snapshot file in talus's layout; the domain from the case (a dict of the TOML)."""
+    folder = Path(folder)
+    files = {int(p.name.split(".")[1]): p for p in folder.glob("snapshot.*.txt")}
+    if not files:
+        raise EngineError(f"{folder}: no snapshot.*.txt (export the case with output.contacts = true and output.snapshot_interval)")
+    d = case["simulation"]["domain"]
+    per = d.get("periodic", [])
+    with h5py.File(out_h5, "w") as h5:
+        h5.attrs["domain_lo"] = np.array(d["lo"], dtype=float)
+        h5.attrs["domain_hi"] = np.array(d["hi"], dtype=float)
+        h5.attrs["periodic"] = np.array([1.0 if a in per else 0.0 for a in "xyz"])
+        for step in sorted(files):
+            t, parts, cons = None, [], []
+            for line in files[step].read_text().splitlines():
+                w = line.split()
+                if not w:
+                    continue
+                if w[0] == "t":
+                    t = float(w[1])
+                elif w[0] == "p":
+                    parts.append([float(x) for x in w[1:]])
+                elif w[0] == "c":
+                    cons.append([float(x) for x in w[1:]])
+            p = np.array(parts, dtype=float).reshape(-1, 9)
+            c = np.array(cons, dtype=float).reshape(-1, 15)
+            g = h5.create_group(f"step_{step:09d}")
+            g.attrs["time_s"] = t
+            g["id"] = p[:, 0].astype(np.uint64)
+            g["position"], g["velocity"], g["radius"], g["mass"] = p[:, 1:4], p[:, 4:7], p[:, 7], p[:, 8]
+            cg = g.create_group("contacts")
+            cg["ids"] = c[:, 0:2].astype(np.uint64)
+            cg["wall"] = c[:, 2].astype(np.uint8)
+            cg["force"], cg["point"], cg["centre"], cg["branch"] = c[:, 3:6], c[:, 6:9], c[:, 9:12], c[:, 12:15]
+    return out_h5
+
+
+def snapshots_of(engine, folder, case):
+    """A reference engine's run as a snapshot file in talus's layout (snapshots.h5 in its folder)."""
+    out = Path(folder) / "snapshots.h5"
+    if engine == "lammps":
+        return lammps_snapshots(folder, out)
+    if engine == "yade":
+        return yade_snapshots(folder, out, case)
+    raise EngineError(f"--fields: the {engine} export does not write contacts yet (lammps and yade do)")
+
+
 def profile(snapshots, axis, width, out, t0=None, t1=None, kernel="gauss", points=100):
     """`talus fields` of a snapshot file (or a run's folder) into folder `out`; the profile's rows."""
     out = Path(out)
@@ -135,15 +185,18 @@ def mean_diameter(snapshots):
         return 2.0 * float(np.mean(h5[last]["radius"][()]))
 
 
-def field_checks(talus, ref, tol, axis, velocity_floor=0.0):
+def field_checks(talus, ref, tol, axis, velocity_floor=0.0, columns=None):
     """Each compared column's largest difference over the points, relative to the scale of
     its kind in talus's profile: density, its largest value; a velocity component, the
     largest of any component (at least `velocity_floor`, m/s: a bed at rest has only noise
     to compare); a stress component, the largest of any component."""
     def family(k):
         return [c for c in COLUMNS if c.split("_")[0] == k.split("_")[0] and c in talus]
+    unknown = [k for k in columns or [] if k not in COLUMNS]
+    if unknown:
+        raise EngineError(f"--fields-columns: unknown column {', '.join(unknown)} (of {', '.join(COLUMNS)})")
     checks = []
-    for k in COLUMNS:
+    for k in columns or COLUMNS:
         if k not in talus or k not in ref:
             continue
         scale = max(float(np.max(np.abs(talus[c]))) for c in family(k))

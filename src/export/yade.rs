@@ -523,6 +523,8 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
         "mass_below_z": case.output.mass_below_z,
         "track": case.output.track,
         "final_state": case.output.final_state,
+        // snapshots for continuum fields (python3 -m compare CASE.toml --fields AXIS)
+        "snapshot_interval": if case.output.contacts { case.output.snapshot_interval } else { None },
         "momentum": case.output.momentum,
         "periodic": periodic,
         "header": header,

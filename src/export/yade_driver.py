@@ -419,8 +419,63 @@ def ke_phase_open():
     return phases[ctl["phase"]]["frac"] is not None and ctl["settle_end"] is None
 
 
+snap_iv = C["snapshot_interval"]
+
+
+def snap_due(k):
+    return snap_iv is not None and (k == 0 or math.floor((k * dt + 0.5 * dt) / snap_iv) > math.floor(((k - 1) * dt + 0.5 * dt) / snap_iv))
+
+
+def write_snapshot(k, V):
+    """What continuum fields need at step k (`output.snapshot_interval` with
+    `output.contacts`), in snapshot.<k>.txt: a line `t TIME`; per sphere `p id x y z vx vy vz
+    radius mass`; per contact `c a partner wall fx fy fz px py pz cx cy cz bx by bz`: the
+    force on particle a (the lower id of a pair), the contact point, a's centre and the
+    branch to it from the partner's centre (or from the wall's contact point; partner is
+    then the wall's index)."""
+    tid = {b: t for t, b in bid.items()}
+    with open("snapshot.%d.txt" % k, "w") as fh:
+        fh.write("t %s\n" % fmt(k * dt))
+        for t in sorted(bid):
+            b = bid[t]
+            if b not in V:
+                continue
+            x, v = wrap(O.bodies[b].state.pos), V[b][0]
+            fh.write("p %d %s %s %s %s %s %s %s %s\n" % (t, fmt(x[0]), fmt(x[1]), fmt(x[2]), fmt(v[0]), fmt(v[1]), fmt(v[2]), fmt(info[t][2]), fmt(info[t][0])))
+        for I in O.interactions.all(True):
+            geo, ph = I.geom, I.phys
+            if geo is None or ph is None or not geo.penetrationDepth > 0.0:
+                continue
+            f12 = ph.normalForce + ph.shearForce if hertz else viscel_force(I, geo, ph)   # on id2
+            w1, w2 = wall_of.get(I.id1), wall_of.get(I.id2)
+            cp = geo.contactPoint
+            if w1 is None and w2 is None:
+                t1, t2 = tid.get(I.id1), tid.get(I.id2)
+                if t1 is None or t2 is None:
+                    continue
+                x1 = O.bodies[I.id1].state.pos
+                x2 = O.bodies[I.id2].state.pos + (O.cell.hSize * Vector3(I.cellDist) if O.periodic else ZERO)
+                a, partner, fa, ca, br = (t1, t2, -f12, x1, x1 - x2) if t1 < t2 else (t2, t1, f12, x2, x2 - x1)
+                wall = 0
+            else:
+                wall = 1
+                partner = w1 if w1 is not None else w2
+                body = I.id2 if w1 is not None else I.id1
+                a = tid.get(body)
+                if a is None:
+                    continue
+                fa = f12 if w1 is not None else -f12
+                ca = O.bodies[body].state.pos
+                br = ca - cp
+            shift = wrap(ca) - ca
+            c = cp + shift
+            fh.write("c %d %d %d %s\n" % (a, partner, wall, " ".join(fmt(q) for q in (*fa, *c, *(ca + shift), *br))))
+
+
 def hook():
     k = O.iter
+    if snap_due(k):
+        write_snapshot(k, step_velocities(k))
     row_due = k == 0 or crossed(k)
     ke_due = k == 0 or (ke_phase_open() and k % 20 == 0)
     if row_due or ke_due:
