@@ -13,7 +13,7 @@ use crate::material::Material;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
     pub simulation: SimulationSection,
@@ -44,7 +44,7 @@ pub struct Case {
 
 /// `[simulation]`. In the file the time step is `timestep` (s) or
 /// `timestep_rayleigh_fraction`, exactly one of them.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(try_from = "RawSimulation", into = "RawSimulation")]
 pub struct SimulationSection {
     pub dimension: Dimension,
@@ -69,7 +69,7 @@ pub enum TimeStep {
 }
 
 /// `[simulation]` as written in the file.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct RawSimulation {
     #[serde(default)]
@@ -118,7 +118,7 @@ impl From<SimulationSection> for RawSimulation {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DomainSection {
     pub lo: [f64; 3],
@@ -143,7 +143,7 @@ impl DomainSection {
 }
 
 /// A coordinate axis, as a case names it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
     X,
@@ -161,7 +161,7 @@ impl Axis {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ModelName {
     Hooke,
@@ -186,7 +186,7 @@ impl ModelName {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSection {
     pub model: ModelName,
@@ -233,7 +233,7 @@ pub struct ContactSection {
 /// per-material-pair functors). Each key given replaces the `[contact]`
 /// section's for this pair; the conventions (`convention`, `tangential`,
 /// `friction_cap`, ...) stay the section's.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ContactPair {
     /// The two materials (their names; either order).
@@ -283,7 +283,7 @@ impl ContactSection {
 }
 
 /// The rolling resistance law.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RollingModel {
     /// Constant directional torque: mu_r F_n R against the relative rolling
@@ -299,7 +299,7 @@ pub enum RollingModel {
 }
 
 /// Where the force of a wall contact acts on the particle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum WallContactPoint {
     /// At the middle of the overlap: arm r - delta/2 (LIGGGHTS).
@@ -323,7 +323,7 @@ impl WallContactPoint {
 
 /// `[particles]`. In the file the particles come from exactly one of `csv`,
 /// `lattice` and `list`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(try_from = "RawParticles", into = "RawParticles")]
 pub struct ParticlesSection {
     pub material: String,
@@ -351,7 +351,7 @@ pub enum ParticleSource {
 }
 
 /// `[particles]` as written in the file.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct RawParticles {
     material: String,
@@ -396,7 +396,7 @@ impl From<ParticlesSection> for RawParticles {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct EllipseEntry {
     pub id: u64,
@@ -410,7 +410,7 @@ pub(crate) fn default_overlap_tol() -> f64 {
     1e-3
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LatticeSection {
     pub count: usize,
@@ -430,7 +430,7 @@ fn default_spacing() -> f64 {
     2.2
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ParticleEntry {
     pub id: u64,
@@ -444,7 +444,7 @@ pub struct ParticleEntry {
 
 /// `[[wall]]`. In the file its shape is exactly one of `plane`, `stl`,
 /// `disc`, `segment` and `box`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(try_from = "RawWall", into = "RawWall")]
 pub struct WallSection {
     pub name: String,
@@ -469,7 +469,7 @@ pub struct WallSection {
 /// `pressure` x `area`; a proportional controller (the wall's position
 /// integrates the error, so it comes to rest where R = target). The probes
 /// gain `<name>_travel_m`, how far it has moved along the direction.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ServoSection {
     pub force: Option<f64>,
@@ -494,7 +494,7 @@ impl ServoSection {
 /// wall is a rigid body). The contact velocity includes the rotation, and the
 /// wall's probes gain `<name>_axis_torque_n_m`, the particles' torque on it about
 /// this axis (a drum's drive torque is its negative).
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RotationSection {
     pub axis: [f64; 3],
@@ -505,7 +505,7 @@ pub struct RotationSection {
 /// `oscillation = { amplitude, frequency }`: the wall is displaced by
 /// `amplitude sin(2 pi frequency (t - t0))` (m, Hz), t0 the time the motion
 /// starts (0, or the start of the phase that sets it); LIGGGHTS's `wiggle`.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OscillationSection {
     pub amplitude: [f64; 3],
@@ -515,7 +515,7 @@ pub struct OscillationSection {
 /// `[[phase.move]]`: from the start of the phase, wall `wall` moves as given
 /// here instead of as before (a part left out is absent: `{ wall = "lid" }`
 /// stops the lid).
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MoveSection {
     pub wall: String,
@@ -554,7 +554,7 @@ impl WallShape {
 }
 
 /// `[[wall]]` as written in the file.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct RawWall {
     name: String,
@@ -631,35 +631,35 @@ impl From<WallSection> for RawWall {
     }
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SegmentSection {
     pub from: [f64; 3],
     pub to: [f64; 3],
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoxSection {
     pub lo: [f64; 3],
     pub hi: [f64; 3],
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DiscSection {
     pub center: [f64; 3],
     pub radius: f64,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PlaneSection {
     pub point: [f64; 3],
     pub normal: [f64; 3],
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PhaseSection {
     pub name: String,
@@ -690,7 +690,7 @@ pub struct PhaseSection {
 /// nor one of its batch; a batch that cannot be placed stops the run with an
 /// error. Radii uniform in `radius = { min, max }` or drawn from
 /// `radius = { values = [...], weights = [...] }` (weights by number).
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct InsertSection {
     pub material: String,
@@ -711,7 +711,7 @@ pub struct InsertSection {
 }
 
 /// Where particles are inserted.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum RegionSection {
     /// An axis-aligned box.
@@ -721,7 +721,7 @@ pub enum RegionSection {
 }
 
 /// Radii of inserted particles.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, untagged)]
 pub enum RadiusSection {
     Uniform { min: f64, max: f64 },
@@ -729,7 +729,7 @@ pub enum RadiusSection {
 }
 
 /// `[parallel]`: how the domain is cut among MPI ranks and kept balanced.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ParallelSection {
     /// Boxes along x, y, z (their product must be the number of ranks);
@@ -790,7 +790,7 @@ impl Default for ParallelSection {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSection {
     /// Probe interval (s).
@@ -829,7 +829,7 @@ pub struct OutputSection {
 /// over the output times from `from` to `to`, written to the output folder
 /// as `profile_<axis>.csv` or `fields.h5` + `fields.xdmf` (what `talus fields`
 /// writes from snapshots).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FieldsSection {
     /// "gauss" (width: standard deviation, cut off at 3 widths) or "lucy" (width: radius).
@@ -880,7 +880,7 @@ fn default_interval() -> f64 {
 /// golden file). The engine does not read them. Every tolerance is relative:
 /// a figure's to its reference value, a probe column's to the column's range
 /// over the run.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CompareSection {
     /// Every summary figure (default 0.02).
@@ -950,7 +950,7 @@ impl CompareSection {
 }
 
 /// What figures the run computes for `summary.json`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "lowercase")]
 pub enum AnalysisSection {
     /// A single collision of `particle` with the wall `wall` or the particle `partner`.
@@ -1694,4 +1694,19 @@ impl Case {
         }
         Ok(())
     }
+}
+
+/// The JSON Schema (draft 7) of a case file, as talus reads it: every
+/// section, key, type and default, with the keys' documentation. `talus
+/// schema` prints it; editors that check TOML against a JSON Schema (taplo)
+/// check case files with it as one types.
+pub fn schema() -> serde_json::Value {
+    let generator = schemars::generate::SchemaSettings::draft07().for_deserialize().into_generator();
+    let mut s = generator.into_root_schema_for::<Case>();
+    s.insert("title".into(), "talus case file".into());
+    s.insert(
+        "description".into(),
+        "A talus case (TOML). Made by `talus schema` from the types talus reads a case into; checks beyond the types (ranges, cross-references between sections) are made when the case is loaded.".into(),
+    );
+    s.to_value()
 }

@@ -75,3 +75,16 @@ impl Dimension {
         }
     }
 }
+
+/// In a case file: the number 2 or 3.
+impl schemars::JsonSchema for Dimension {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Dimension".into()
+    }
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "description": "2 (a run in the x-y plane) or 3",
+            "enum": [2, 3, "2", "3"]
+        })
+    }
+}

@@ -113,6 +113,10 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Print the JSON Schema of a case file (draft 7): every section and key with its type,
+    /// default and documentation. Editors that check TOML against a JSON Schema (taplo,
+    /// Even Better TOML) check case files with it as one types.
+    Schema,
     /// Write the H1 hopper meshes (hopper.stl, box.stl) into a folder.
     Meshes { dir: PathBuf },
     /// Write a case's initial particles as CSV (id,x,y,z,radius,vx,vy,vz), for the other engines;
@@ -243,7 +247,11 @@ fn real_main(cli: Cli, comm: Rc<Comm>) -> Result<ExitCode, TalusError> {
             Ok(ExitCode::SUCCESS)
         }
         // the commands that only write files: under mpirun, rank 0 writes them once
-        Cmd::Export { .. } | Cmd::Meshes { .. } | Cmd::Cloud { .. } | Cmd::Fields { .. } if !comm.is_root() => Ok(ExitCode::SUCCESS),
+        Cmd::Export { .. } | Cmd::Meshes { .. } | Cmd::Cloud { .. } | Cmd::Fields { .. } | Cmd::Schema if !comm.is_root() => Ok(ExitCode::SUCCESS),
+        Cmd::Schema => {
+            println!("{}", serde_json::to_string_pretty(&talus::case::schema()).expect("a JSON value"));
+            Ok(ExitCode::SUCCESS)
+        }
         Cmd::Fields { run, kernel, width, grid, profile, points, from, to, out } => {
             let grid = grid
                 .map(|g| {

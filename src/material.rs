@@ -7,7 +7,7 @@ use crate::error::TalusError;
 use serde::{Deserialize, Serialize};
 
 /// A particle or wall material, validated on construction.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
     pub name: String,

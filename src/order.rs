@@ -17,7 +17,7 @@ use crate::dim::Vec3;
 use crate::particles::Particles;
 
 /// How the owned particles are kept in storage (`[parallel] order`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum StorageOrder {
     /// Along a Hilbert curve through the particles' bounding box.

@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// The cohesion sub-model (`[contact] cohesion = { model = "sjkr", energy_density = K }`).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Cohesion {
     pub model: CohesionModel,
@@ -41,7 +41,7 @@ pub struct Cohesion {
 }
 
 /// Which contact area the cohesive force is proportional to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum CohesionModel {
     /// The intersection circle of the undeformed spheres (LIGGGHTS `cohesion sjkr`).

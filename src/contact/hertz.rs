@@ -18,7 +18,7 @@ use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
 
 /// How restitution is mapped to a damping coefficient.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum HertzDamping {
     Liggghts,

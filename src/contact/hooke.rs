@@ -20,7 +20,7 @@ use crate::material::PairMaterial;
 use serde::{Deserialize, Serialize};
 
 /// Explicit linear spring-dashpot coefficients (absolute).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HookeExplicit {
     /// Normal stiffness (N/m).

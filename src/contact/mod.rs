@@ -264,7 +264,7 @@ pub trait ContactLaw: Copy + PartialEq + Send + Sync + 'static {
 }
 
 /// How the normal force behaves at the end of a contact.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum EndOfContact {
     /// The damped normal force may go slightly tensile as the bodies separate
@@ -278,7 +278,7 @@ pub enum EndOfContact {
 }
 
 /// How tangential history is kept.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum TangentialHistory {
     /// LIGGGHTS `tangential history`: the history is the total shear displacement,
@@ -298,7 +298,7 @@ pub enum TangentialHistory {
 }
 
 /// Which normal force sets the Coulomb cap mu F.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum FrictionCap {
     /// mu |F_n| with F_n the total (elastic plus viscous) normal force (LIGGGHTS
@@ -319,7 +319,7 @@ pub enum FrictionCap {
 }
 
 /// Which relative velocity drives the shear spring.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ShearKinematics {
     /// The relative velocity of the two material points at the contact, spin arms
@@ -610,7 +610,7 @@ pub fn yade_shear_velocity(n: Vec3, overlap: f64, r_i: f64, r_j: f64, v_i: Vec3,
 /// The convention used to fill unspecified options: one reference code's as a
 /// whole, or talus's own (LIGGGHTS's, but with the Coulomb cap on the elastic
 /// normal force, see [`FrictionCap`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Convention {
     #[default]

@@ -19,7 +19,7 @@ use crate::particles::Particles;
 use serde::{Deserialize, Serialize};
 
 /// How subdomain loads are estimated for balancing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum BalanceMode {
     /// Static planes (equal particle counts at the start).
