@@ -17,7 +17,8 @@ from the recorded results (compare/benchpage.py); `python -m compare validation 
 [--compare-dir out/compare] [--cargo-profile ci|release] [--no-cargo]`: docs/validation.md, every closed-form
 test (run by cargo) and every comparison in the compare dir with its current figure (compare/validation.py);
 `python -m compare schema [--check]`: docs/case.schema.json (`talus schema`) and the case-file reference
-docs/guide/case-reference.md made from it (compare/schema_page.py).
+docs/guide/case-reference.md made from it (compare/schema_page.py); `python -m compare pyref [--check]`:
+docs/guide/python-reference.md from the module's stub (compare/pyref.py).
 Runs the engines, computes every figure from their raw time series by one piece of
 code, prints them side by side, writes report.md, figures.json and PNG plots into
 DIR, and exits 1 when a figure is outside its tolerance (tolerances.py).
@@ -149,6 +150,9 @@ def main(argv=None):
     if argv[:1] == ["ab"]:  # this tree's talus against a baseline commit: compare/ab.py
         from . import ab
         return ab.main(argv[1:])
+    if argv[:1] == ["pyref"]:  # docs/guide/python-reference.md from the module's stub: compare/pyref.py
+        from . import pyref
+        return pyref.main(argv[1:])
     if argv[:1] == ["schema"]:  # docs/case.schema.json and the case-file reference: compare/schema_page.py
         from . import schema_page
         return schema_page.main(argv[1:])
