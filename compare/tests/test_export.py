@@ -96,6 +96,9 @@ def test_what_liggghts_cannot_run_is_refused_naming_the_key(tmp_path):
     for case, edit, key in [
         ("SC-wall.toml", lambda t: t.replace('integrator = "verlet"', 'integrator = "gear"'), "simulation.integrator"),
         ("SC-wall.toml", lambda t: t.replace('convention = "talus"', 'convention = "talus"\ntangential = "incremental"'), "contact.tangential"),
+        # one of two mesh walls removed: LIGGGHTS 3.8 cannot define its wall/gran/local compute again
+        ("H1-small.toml", lambda t: t.replace('remove_walls_at_end = ["gate"]', 'remove_walls_at_end = ["gate", "hopper"]')
+         .replace('stl = "meshes/', f'stl = "{CASES}/meshes/'), "phase[0].remove_walls_at_end"),
     ]:
         p = tmp_path / case
         p.write_text(edit((CASES / case).read_text()))

@@ -191,6 +191,21 @@ fn check(case: &Case) -> Result<Law, TalusError> {
     if !case.particles.clumps.is_empty() {
         return Err(refuse(case, "particles.clumps", "the LIGGGHTS exporter writes no clumps (multisphere is not in LIGGGHTS-PUBLIC 3.8)"));
     }
+    // a mesh wall removed while another stays: the deck would define the mesh
+    // contacts' wall/gran/local compute again after the first run, which LIGGGHTS
+    // 3.8 refuses ("Need to define this compute before first run")
+    let meshes: Vec<&str> = case.walls.iter().filter(|w| matches!(w.shape, WallShape::Stl(_))).map(|w| w.name.as_str()).collect();
+    if meshes.len() > 1 {
+        let removed_at = case.walls.iter().filter(|w| w.remove_at.is_some()).map(|w| (w.name.as_str(), "wall.remove_at".to_string()));
+        let removed_end = case.phases.iter().enumerate().flat_map(|(k, p)| p.remove_walls_at_end.iter().map(move |n| (n.as_str(), format!("phase[{k}].remove_walls_at_end"))));
+        if let Some((name, key)) = removed_at.chain(removed_end).find(|(n, _)| meshes.contains(n)) {
+            return Err(refuse(
+                case,
+                &key,
+                &format!("removes the mesh wall \"{name}\" while other mesh walls stay: LIGGGHTS 3.8 cannot define the mesh contacts' wall/gran/local compute again after the first run"),
+            ));
+        }
+    }
     let law = law(case)?;
     let c = &case.contact;
     // each option LIGGGHTS cannot hold, by name (every value decided: a new
