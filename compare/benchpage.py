@@ -101,7 +101,7 @@ def page(records=RECORDS):
         m = r["machine"]
         mem = f", {m['memory_bytes'] / 2**30:.0f} GiB" if m.get("memory_bytes") else ""
         lines += [f"## {p.stem}", "", f"    {r['command']}", "",
-                  f"Measured {r['recorded']} on {m['processor']}, {m['cores']} cores{mem}.", ""]
+                  f"Measured on {m['processor']}, {m['cores']} cores{mem} (the record keeps the date).", ""]
         lines += ab_section(r) if "workloads" in r["result"] else throughput_section(r)
         lines.append("")
     return "\n".join(lines)
