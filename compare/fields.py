@@ -71,13 +71,6 @@ def lammps_snapshots(folder, out_h5):
             ids = p[:, c["id"]].astype(np.int64)
             radius = p[:, c["radius"]]
             at = {int(i): k for k, i in enumerate(ids)}
-            g = h5.create_group(f"step_{step:09d}")
-            g.attrs["time_s"] = step * dt
-            g["position"] = pos
-            g["velocity"] = p[:, [c["vx"], c["vy"], c["vz"]]]
-            g["mass"] = p[:, c["mass"]]
-            g["radius"] = radius
-            g["id"] = ids.astype(np.uint64)
             rec = {"ids": [], "wall": [], "force": [], "point": [], "centre": [], "branch": []}
             # pairs
             cfile = folder / f"contacts.{step}.dump"
@@ -103,13 +96,26 @@ def lammps_snapshots(folder, out_h5):
                     point = p[k, j[4:7]]
                     rec["ids"].append([int(ids[k]), w]); rec["wall"].append(1); rec["force"].append(p[k, j[1:4]])
                     rec["point"].append(point); rec["centre"].append(pos[k]); rec["branch"].append(pos[k] - point)
-            cg = g.create_group("contacts")
             n = len(rec["wall"])
-            cg["ids"] = np.array(rec["ids"], dtype=np.uint64).reshape(n, 2)
-            cg["wall"] = np.array(rec["wall"], dtype=np.uint8)
-            for key in ("force", "point", "centre", "branch"):
-                cg[key] = np.array(rec[key], dtype=float).reshape(n, 3)
+            _write_snapshot(h5, step, step * dt, ids, pos, p[:, [c["vx"], c["vy"], c["vz"]]], radius, p[:, c["mass"]],
+                            {"ids": np.array(rec["ids"]).reshape(n, 2), "wall": np.array(rec["wall"]),
+                             **{k: np.array(rec[k], dtype=float).reshape(n, 3) for k in ("force", "point", "centre", "branch")}})
     return out_h5
+
+
+def _write_snapshot(h5, step, t, ids, pos, vel, radius, mass, contacts):
+    """One snapshot group in talus's layout (src/output.rs, src/fields/snapshots.rs): the
+    particles, and the contacts' ids (n x 2), wall flags and force, point, centre and
+    branch (n x 3 each)."""
+    g = h5.create_group(f"step_{step:09d}")
+    g.attrs["time_s"] = t
+    g["id"] = np.asarray(ids).astype(np.uint64)
+    g["position"], g["velocity"], g["radius"], g["mass"] = pos, vel, radius, mass
+    cg = g.create_group("contacts")
+    cg["ids"] = np.asarray(contacts["ids"]).astype(np.uint64)
+    cg["wall"] = np.asarray(contacts["wall"]).astype(np.uint8)
+    for key in ("force", "point", "centre", "branch"):
+        cg[key] = contacts[key]
 
 
 def yade_snapshots(folder, out_h5, case):
@@ -140,14 +146,8 @@ def yade_snapshots(folder, out_h5, case):
                     cons.append([float(x) for x in w[1:]])
             p = np.array(parts, dtype=float).reshape(-1, 9)
             c = np.array(cons, dtype=float).reshape(-1, 15)
-            g = h5.create_group(f"step_{step:09d}")
-            g.attrs["time_s"] = t
-            g["id"] = p[:, 0].astype(np.uint64)
-            g["position"], g["velocity"], g["radius"], g["mass"] = p[:, 1:4], p[:, 4:7], p[:, 7], p[:, 8]
-            cg = g.create_group("contacts")
-            cg["ids"] = c[:, 0:2].astype(np.uint64)
-            cg["wall"] = c[:, 2].astype(np.uint8)
-            cg["force"], cg["point"], cg["centre"], cg["branch"] = c[:, 3:6], c[:, 6:9], c[:, 9:12], c[:, 12:15]
+            _write_snapshot(h5, step, t, p[:, 0], p[:, 1:4], p[:, 4:7], p[:, 7], p[:, 8],
+                            {"ids": c[:, 0:2], "wall": c[:, 2], "force": c[:, 3:6], "point": c[:, 6:9], "centre": c[:, 9:12], "branch": c[:, 12:15]})
     return out_h5
 
 

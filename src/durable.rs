@@ -29,16 +29,7 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std
     let f = w.into_inner().map_err(|e| io("writing", e.into_error()))?;
     f.sync_all().map_err(|e| io("syncing", e))?;
     drop(f);
-    std::fs::rename(&tmp, path)
-        .map_err(|e| TalusError::io(format!("cannot rename {} to {}", tmp.display(), path.display()), e))?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        // make the rename itself durable; a folder that cannot be opened for
-        // syncing (some file systems) is not an error
-        if let Ok(d) = File::open(dir) {
-            let _ = d.sync_all();
-        }
-    }
-    Ok(())
+    rename_durably(&tmp, path)
 }
 
 /// Make the finished file `tmp` (written by a library that writes its own
@@ -47,6 +38,13 @@ pub fn sync_rename(tmp: &Path, path: &Path) -> Result<(), TalusError> {
     let f = File::open(tmp).map_err(|e| TalusError::io(format!("cannot open {}", tmp.display()), e))?;
     f.sync_all().map_err(|e| TalusError::io(format!("syncing {}", tmp.display()), e))?;
     drop(f);
+    rename_durably(tmp, path)
+}
+
+/// Rename the synced file `tmp` over `path`, then sync the folder so that
+/// the rename itself is durable (a folder that cannot be opened for syncing,
+/// on some file systems, is not an error).
+fn rename_durably(tmp: &Path, path: &Path) -> Result<(), TalusError> {
     std::fs::rename(tmp, path).map_err(|e| TalusError::io(format!("cannot rename {} to {}", tmp.display(), path.display()), e))?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if let Ok(d) = File::open(dir) {

@@ -706,7 +706,8 @@ impl Simulation {
     /// case asks for contacts or fields).
     pub fn contact_records(&self) -> Vec<crate::fields::ContactRecord> {
         let (p, nl) = (&self.state.p, &self.state.nl);
-        let period = self.set.sweep.period;
+        // (the period where the particles carry images, as `Shapes::new` takes it)
+        let period = (!p.image.is_empty()).then_some(self.set.sweep.period);
         let n_own = p.owned();
         let mut out = Vec::new();
         for (k, &(a, b)) in nl.pairs.iter().enumerate() {
@@ -714,10 +715,7 @@ impl Simulation {
             if a >= n_own || !nl.pair_touch.get(k).copied().unwrap_or(false) {
                 continue;
             }
-            let mut d = p.pos[a] - p.pos[b];
-            if !p.image.is_empty() {
-                d += crate::particles::image_shift(&[p.image[a][0] - p.image[b][0], p.image[a][1] - p.image[b][1], p.image[a][2] - p.image[b][2]], &period);
-            }
+            let d = crate::contact::geometry::pair_offset(p, a, b, period.as_ref());
             let share = p.radius[a] / (p.radius[a] + p.radius[b]);
             out.push(crate::fields::ContactRecord {
                 a: p.id[a],
@@ -777,10 +775,17 @@ impl Simulation {
     /// Wall contacts count only where they are kept ([`Simulation::keep_wall_contacts`]).
     pub fn fields_now(&self, kernel: crate::fields::kernel::Kernel, points: crate::fields::Points) -> Result<crate::fields::Averaged, TalusError> {
         let mut f = crate::fields::Fields::new(kernel, points, self.fields_domain()).map_err(TalusError::Input)?;
-        let (p, _) = self.par.gather_particles(&self.state.p, &self.state.gear);
-        let contacts = self.all_contacts();
-        f.add(&crate::fields::Sample { pos: &p.pos, vel: &p.vel, mass: &p.mass, contacts: &contacts });
+        let (p, contacts) = self.fields_sample();
+        f.add(&crate::fields::Sample::of(&p, &contacts));
         Ok(f.averaged())
+    }
+
+    /// What one sample of the continuum fields reads: every particle, in
+    /// order of id, and every contact ([`Simulation::all_contacts`]), on
+    /// every rank (a collective).
+    pub fn fields_sample(&self) -> (Particles, Vec<crate::fields::ContactRecord>) {
+        let (p, _) = self.par.gather_particles(&self.state.p, &self.state.gear);
+        (p, self.all_contacts())
     }
 
     /// The fields' domain: the case's box and its periodic axes.

@@ -196,6 +196,25 @@ pub struct Shapes {
     period: Option<Vec3>,
 }
 
+/// x_a - x_b of particles a and b as the list sees them: with `period`
+/// (a periodic domain), across a periodic face the owners' position bits,
+/// then whole periods (the images' difference, an integer times the period),
+/// so every rank that evaluates the pair gets the same bits.
+#[inline(always)]
+pub fn pair_offset(p: &Particles, a: usize, b: usize, period: Option<&Vec3>) -> Vec3 {
+    let mut d = p.pos[a] - p.pos[b];
+    if let Some(l) = period {
+        let (ka, kb) = (p.image[a], p.image[b]);
+        for k in 0..3 {
+            let n = ka[k] - kb[k];
+            if n != 0 {
+                d[k] += n as f64 * l[k];
+            }
+        }
+    }
+    d
+}
+
 impl Shapes {
     /// The shapes of `p` in a domain of this period (zero: not periodic along that axis).
     pub fn new(p: &Particles, period: &Vec3) -> Self {
@@ -217,19 +236,7 @@ impl Shapes {
     #[inline(always)]
     pub fn pair_within(&self, p: &Particles, a: usize, b: usize, reach: f64) -> Option<ContactGeom> {
         // bounding spheres first (an ellipse's radius is its semi-major axis)
-        let mut d = p.pos[a] - p.pos[b];
-        if let Some(l) = &self.period {
-            // across a periodic face: the owners' position bits, then whole
-            // periods (the images' difference, an integer times the period), so
-            // every rank that evaluates the pair gets the same bits
-            let (ka, kb) = (p.image[a], p.image[b]);
-            for k in 0..3 {
-                let n = ka[k] - kb[k];
-                if n != 0 {
-                    d[k] += n as f64 * l[k];
-                }
-            }
-        }
+        let d = pair_offset(p, a, b, self.period.as_ref());
         let rsum = p.radius[a] + p.radius[b];
         let dist2 = d.norm_squared();
         if reach > 0.0 {

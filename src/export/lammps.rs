@@ -434,7 +434,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
     let every = super::probe_every(case, dt, &mut notes);
     if let (true, Some(iv)) = (case.output.contacts, case.output.snapshot_interval) {
         let reaches = (0..nmat).any(|a| (a..nmat).any(|b| matches!(law(a, b), Ok(Law::Jkr(_)))));
-        snapshot_dumps(w, iv, dt, &wall_fixes, reaches);
+        snapshot_dumps(w, super::steps_every("snapshots", "a snapshot", iv, dt, &mut notes), &wall_fixes, reaches);
     }
     let first = case.phases.first().map(|p| p.name.as_str()).unwrap_or("end");
     let _ = writeln!(w, "variable phase string {first}");
@@ -471,8 +471,7 @@ pub fn export(case: &Case, out: &Path) -> Result<Exported, TalusError> {
 /// contact in `contacts.<step>.dump` (ids, normal and tangential force on the
 /// first, x_first - x_second with the image in contact). See
 /// docs/contacts-in-the-reference-codes.md.
-fn snapshot_dumps(w: &mut String, interval: f64, dt: f64, wall_fixes: &[(String, Vec<(usize, String)>, usize, f64)], reaches: bool) {
-    let every = ((interval / dt).round() as u64).max(1);
+fn snapshot_dumps(w: &mut String, every: u64, wall_fixes: &[(String, Vec<(usize, String)>, usize, f64)], reaches: bool) {
     // a law that reaches beyond touching (JKR) keeps contacts apart: the type
     // cutoff lists them, with all-zero rows for the neighbours that do not
     // touch (the reader drops those)

@@ -250,12 +250,18 @@ pub(crate) fn lammps_family_columns(case: &Case, w: &mut String, header: &mut St
 /// Steps between probe rows in a deck: the case's interval rounded to whole
 /// steps, with a note where that is not the interval itself.
 pub(crate) fn probe_every(case: &Case, dt: f64, notes: &mut Vec<String>) -> u64 {
-    let every = ((case.output.interval / dt).round() as u64).max(1);
-    if (every as f64 * dt - case.output.interval).abs() > 1e-9 * case.output.interval {
+    steps_every("probes", "a row", case.output.interval, dt, notes)
+}
+
+/// Steps between outputs (`what`, each `one`) written every `interval` (s)
+/// in a deck: the interval rounded to whole steps, with a note where that is
+/// not the interval itself.
+pub(crate) fn steps_every(what: &str, one: &str, interval: f64, dt: f64, notes: &mut Vec<String>) -> u64 {
+    let every = ((interval / dt).round() as u64).max(1);
+    if (every as f64 * dt - interval).abs() > 1e-9 * interval {
         notes.push(format!(
-            "probes every {every} steps ({:.9e} s; talus writes a row at each step that crosses a multiple of {} s)",
-            every as f64 * dt,
-            case.output.interval
+            "{what} every {every} steps ({:.9e} s; talus writes {one} at each step that crosses a multiple of {interval} s)",
+            every as f64 * dt
         ));
     }
     every

@@ -389,8 +389,8 @@ ctl = {"phase": 0, "start": 0, "settle_end": None, "pe0": None, "E": {},
        "name": phases[0]["name"] if phases else "end"}
 
 
-def crossed(k):
-    return math.floor((k * dt + 0.5 * dt) / iv) > math.floor(((k - 1) * dt + 0.5 * dt) / iv)
+def crossed(k, interval=iv):
+    return math.floor((k * dt + 0.5 * dt) / interval) > math.floor(((k - 1) * dt + 0.5 * dt) / interval)
 
 
 def phase_end(s0, d):
@@ -423,7 +423,7 @@ snap_iv = C["snapshot_interval"]
 
 
 def snap_due(k):
-    return snap_iv is not None and (k == 0 or math.floor((k * dt + 0.5 * dt) / snap_iv) > math.floor(((k - 1) * dt + 0.5 * dt) / snap_iv))
+    return snap_iv is not None and (k == 0 or crossed(k, snap_iv))
 
 
 def write_snapshot(k, V):

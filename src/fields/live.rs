@@ -39,10 +39,9 @@ impl FieldsLog {
 
     /// Take a sample (a collective) and write the averages so far (rank 0).
     pub fn sample(&mut self, sim: &Simulation) -> Result<(), TalusError> {
-        let (p, _) = sim.parallel().gather_particles(sim.particles(), &sim.state().gear);
-        let contacts = sim.all_contacts();
+        let (p, contacts) = sim.fields_sample();
         let r = if sim.parallel().comm.is_root() {
-            self.fields.add(&super::Sample { pos: &p.pos, vel: &p.vel, mass: &p.mass, contacts: &contacts });
+            self.fields.add(&super::Sample::of(&p, &contacts));
             self.fields.write_to(&self.dir).map(|_| ())
         } else {
             Ok(())

@@ -124,6 +124,13 @@ pub struct Sample<'a> {
     pub contacts: &'a [ContactRecord],
 }
 
+impl<'a> Sample<'a> {
+    /// The particles `p` (all of them: gathered, no ghosts) and `contacts`.
+    pub fn of(p: &'a crate::particles::Particles, contacts: &'a [ContactRecord]) -> Sample<'a> {
+        Sample { pos: &p.pos, vel: &p.vel, mass: &p.mass, contacts }
+    }
+}
+
 /// Running sums of the fields over samples.
 #[derive(Clone, Debug)]
 pub struct Fields {
