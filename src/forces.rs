@@ -25,13 +25,9 @@ use std::sync::atomic::Ordering;
 /// 2 MIN_LEN of each is never split, so it runs on the calling thread.
 pub const MIN_LEN: usize = 256;
 
-/// How many particles ahead the gather fetches the pair results it will read.
+/// How many particles ahead the gather fetches the places of the pair results
+/// it will read.
 const PREFETCH: usize = 6;
-
-/// How many pairs ahead the pair sweep fetches the partner's position,
-/// velocity and spin (the cell order keeps them near, but not in order:
-/// loads the processor cannot foresee).
-const ROW_PREFETCH: usize = 8;
 
 /// Everything the sweep needs besides state.
 #[derive(Clone, Debug, PartialEq)]
@@ -193,7 +189,9 @@ fn sweep<L: ContactLaw>(
 /// and torques are computed once, where the list keeps it (the row of a, its
 /// lower id). Particle a adds its own part at once, in its row's order (its
 /// partners of higher id, by id), to its weight; b's part is kept in
-/// `pair_out`. Then every owned particle takes away what its partners of
+/// `pair_out`, packed: the touching pairs of a block of rows one after the
+/// other, each pair's place in `pair_slot` (the last entry, zeros, for a
+/// pair that does not touch). Then every owned particle takes away what its partners of
 /// lower id put on it, in order of their ids (`NeighborList::incident`): the
 /// same sums, bit for bit, whatever the order of the pairs or of the
 /// particles in storage, and whatever the thread count. Returns (contacts
@@ -222,12 +220,10 @@ fn pair_forces<L: ContactLaw>(
     // the rolling spring torques where the law keeps them (epsd2), else none:
     // two monomorphised sweeps, so that the laws without add nothing per pair
     let rolling = nl.pair_roll.len() == nl.pairs.len() && !nl.pairs.is_empty();
-    // after a build `pair_out` is not cleared: this sweep writes its zeros
-    let clean = std::mem::replace(&mut nl.pair_out_clean, true);
-    let (hist, roll, touch, out) = (&mut nl.pair_hist, &mut nl.pair_roll, &mut nl.pair_touch, &mut nl.pair_out);
+    let (hist, roll, slot, out) = (&mut nl.pair_hist, &mut nl.pair_roll, &mut nl.pair_slot, &mut nl.pair_out);
     let counts = if s.grain == usize::MAX || n <= 2 * ROW_BLOCK {
-        let rows = Rows { first: 0, hist, roll, touch, out, force: &mut force, torque: &mut torque };
-        if rolling { ev.rows::<true>(rows, start, clean) } else { ev.rows::<false>(rows, start, clean) }
+        let rows = Rows { first: 0, hist, roll, slot, out, force: &mut force, torque: &mut torque };
+        if rolling { ev.rows::<true>(rows, start) } else { ev.rows::<false>(rows, start) }
     } else {
         // at most ROW_BLOCK rows a block, and at least eight blocks a thread
         // where the system is small (a few thousand particles in three
@@ -237,17 +233,17 @@ fn pair_forces<L: ContactLaw>(
         let mut roll_blocks = roll_blocks.into_iter();
         let blocks: Vec<_> = row_blocks_of(hist, start, n, block)
             .into_iter()
-            .zip(row_blocks_of(touch, start, n, block))
+            .zip(row_blocks_of(slot, start, n, block))
             .zip(row_blocks_of(out, start, n, block))
             .zip(force.chunks_mut(block).zip(torque.chunks_mut(block)))
-            .map(|((((range, hist), (_, touch)), (_, out)), (force, torque))| {
+            .map(|((((range, hist), (_, slot)), (_, out)), (force, torque))| {
                 let roll: &mut [Vec3] = roll_blocks.next().map_or(&mut [], |x| x.1);
-                Rows { first: range.start, hist, roll, touch, out, force, torque }
+                Rows { first: range.start, hist, roll, slot, out, force, torque }
             })
             .collect();
         blocks
             .into_par_iter()
-            .map(|rows| if rolling { ev.rows::<true>(rows, start, clean) } else { ev.rows::<false>(rows, start, clean) })
+            .map(|rows| if rolling { ev.rows::<true>(rows, start) } else { ev.rows::<false>(rows, start) })
             .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
     };
     p.force = force;
@@ -257,26 +253,26 @@ fn pair_forces<L: ContactLaw>(
         p.force[i] = s.gravity * p.mass[i];
         p.torque[i] = Vec3::zeros();
     }
-    let (start, incident, out, touched) = (&nl.incident_start, &nl.incident, &nl.pair_out, &*touched);
+    let (start, incident, out, slot, touched) = (&nl.incident_start, &nl.incident, &nl.pair_out, &nl.pair_slot, &*touched);
     let gather = |(i, (f, t)): (usize, (&mut Vec3, &mut Vec3))| {
         // the pair results a later particle will read, fetched ahead
         if i + PREFETCH < n_own {
             let j = i + PREFETCH;
             for &k in &incident[start[j] as usize..start[j + 1] as usize] {
-                prefetch(out, k as usize);
+                prefetch(slot, k as usize);
             }
         }
         if !touched[i].load(Ordering::Relaxed) {
             return;
         }
-        // partners of lower id (i is the pair's b), in order of id: zeros
-        // for those that do not touch change nothing (f - 0 is f, and a
+        // partners of lower id (i is the pair's b), in order of id: the
+        // zeros (the last entry) for those that do not touch change nothing (f - 0 is f, and a
         // torque sum, which starts at +0, is never -0, so t + 0 is t), and
         // cost less than a test (a branch the processor cannot predict)
         // (summed in locals, which stay in registers)
         let (mut fs, mut ts) = (*f, *t);
         for &k in &incident[start[i] as usize..start[i + 1] as usize] {
-            let c = &out[k as usize];
+            let c = &out[slot[k as usize] as usize];
             fs -= c.force;
             ts += c.torque_b;
         }
@@ -305,13 +301,14 @@ struct PairEval<'a, L: ContactLaw> {
 }
 
 /// The rows of particles `first..first + force.len()`: their pairs' history,
-/// rolling spring torques (empty unless the law keeps them), touch flags and
-/// b's parts (from the rows' first pair on), and the particles' sums.
+/// rolling spring torques (empty unless the law keeps them), places of b's
+/// parts (`NeighborList::pair_slot`) and room for them (from the rows' first
+/// pair on), and the particles' sums.
 struct Rows<'a> {
     first: usize,
     hist: &'a mut [Vec3],
     roll: &'a mut [Vec3],
-    touch: &'a mut [bool],
+    slot: &'a mut [u32],
     out: &'a mut [PairOut],
     force: &'a mut [Vec3],
     torque: &'a mut [Vec3],
@@ -319,11 +316,11 @@ struct Rows<'a> {
 
 impl<L: ContactLaw> PairEval<'_, L> {
     /// Every pair of these rows: its force and torques, a's part summed into
-    /// a's force and torque from a's weight (in row order), b's kept in `out`
-    /// (zeros where the pair does not touch: `clean` says whether `out`
-    /// already holds them, else this sweep writes them). `ROLL`: the law keeps rolling
+    /// a's force and torque from a's weight (in row order), b's kept in `out`,
+    /// the touching pairs' one after the other, each pair's place in `slot`
+    /// ([`zero_slot`] where it does not touch). `ROLL`: the law keeps rolling
     /// spring torques. Returns (contacts evaluated, contacts owned).
-    fn rows<const ROLL: bool>(&self, r: Rows<'_>, start: &[u32], clean: bool) -> (usize, usize) {
+    fn rows<const ROLL: bool>(&self, r: Rows<'_>, start: &[u32]) -> (usize, usize) {
         let PairEval { law, s, pr, shapes, table, touched, n_own, consts, pairs } = *self;
         if r.force.is_empty() {
             return (0, 0);
@@ -331,7 +328,10 @@ impl<L: ContactLaw> PairEval<'_, L> {
         let base = start[r.first] as usize;
         let (mut evaluated, mut owned) = (0, 0);
         let inertia = L::USES_INERTIA || s.opts.rolling.is_some();
-        let Rows { first, hist, roll, touch, out, force, torque } = r;
+        let Rows { first, hist, roll, slot, out, force, torque } = r;
+        let zero = zero_slot(pairs);
+        // the next free place in `out` (this block's touching pairs so far)
+        let mut packed = 0usize;
         // the sums start from the weight and no torque, and take each pair
         // of the row in turn (one pass over the pairs of all these rows)
         for (a, (f, t)) in (first..).zip(force.iter_mut().zip(torque.iter_mut())) {
@@ -339,17 +339,9 @@ impl<L: ContactLaw> PairEval<'_, L> {
             *t = Vec3::zeros();
         }
         let k1 = start[first + force.len()] as usize;
-        let all = pairs[base..k1].iter().zip(hist.iter_mut()).zip(touch.iter_mut().zip(out.iter_mut())).zip(&consts[base..k1]).enumerate();
-        for (j, (((&(a, b), hist), (touch, out)), pair)) in all {
+        let all = pairs[base..k1].iter().zip(hist.iter_mut()).zip(slot.iter_mut()).zip(&consts[base..k1]).enumerate();
+        for (j, (((&(a, b), hist), slot), pair)) in all {
             let (a, b) = (a as usize, b as usize);
-            if base + j + ROW_PREFETCH < k1 {
-                let c = pairs[base + j + ROW_PREFETCH].1 as usize;
-                prefetch(&pr.pos, c);
-                prefetch(&pr.vel, c);
-                prefetch(&pr.omega, c);
-            }
-            // invariant: a pair whose flag is down has zeros in `out`
-            // (written here by the first sweep after a build)
             // a contact that reaches beyond touching (JKR) goes on while it
             // touched at the last step: its mark is kept in the second history
             // slot, carried with the shear history over list builds,
@@ -362,10 +354,7 @@ impl<L: ContactLaw> PairEval<'_, L> {
                 if ROLL {
                     roll[j] = Vec3::zeros();
                 }
-                if *touch || !clean {
-                    *touch = false;
-                    *out = PairOut::default();
-                }
+                *slot = zero;
                 continue;
             };
             let pm = table.get(pr.material[a], pr.material[b]);
@@ -380,8 +369,9 @@ impl<L: ContactLaw> PairEval<'_, L> {
             if L::REACHES {
                 *roll = TOUCHING;
             }
-            *touch = true;
-            *out = PairOut { force: c.force, torque_b: c.torque_j };
+            out[packed] = PairOut { force: c.force, torque_b: c.torque_j };
+            *slot = (base + packed) as u32;
+            packed += 1;
             force[a - first] += c.force;
             torque[a - first] += c.torque_i;
             touched[b].store(true, Ordering::Relaxed);
@@ -392,6 +382,13 @@ impl<L: ContactLaw> PairEval<'_, L> {
         }
         (evaluated, owned)
     }
+}
+
+/// The place in `pair_out` of the zeros that a pair which does not touch
+/// points at (`NeighborList::pair_slot`): the entry after the last pair's.
+#[inline(always)]
+pub fn zero_slot(pairs: &[(u32, u32)]) -> u32 {
+    pairs.len() as u32
 }
 
 /// A law that reaches beyond touching (`ContactLaw::REACHES`, JKR) marks

@@ -170,10 +170,13 @@ pub struct NeighborList {
     pub found: Vec<(u32, u32)>,
     #[serde(skip)]
     pub row_keyed: Vec<(u64, u32)>,
-    /// Whether each pair touched at the last sweep (one byte a pair: a list
-    /// holds many more pairs than contacts while particles fall).
+    /// Where each pair's part for its b sits in `pair_out` after the last
+    /// sweep: packed, the touching pairs of a block of rows one after the
+    /// other; a pair that does not touch points at the zeros after the last
+    /// pair's place (`forces::zero_slot`), so the gather reads four bytes,
+    /// not 48, for each of the many pairs of a list that do not touch.
     #[serde(skip)]
-    pub pair_touch: Vec<bool>,
+    pub pair_slot: Vec<u32>,
     /// Whether each particle is the b (higher id) of a touching pair at this
     /// sweep (work space of the force sweep, kept to spare an allocation a
     /// step).
@@ -182,15 +185,11 @@ pub struct NeighborList {
     /// The owned particles that have wall candidates, in storage order.
     #[serde(skip)]
     pub wall_owners: Vec<u32>,
-    /// Each pair's part for its b from the last sweep (force, torque on b),
-    /// in list order (zeros where the pair does not touch, once a sweep
-    /// has run on this build: `pair_out_clean`).
+    /// The touching pairs' parts for their b from the last sweep (force,
+    /// torque on b), at the places `pair_slot` gives, and one entry of zeros
+    /// at the end.
     #[serde(skip)]
     pub pair_out: Vec<PairOut>,
-    /// Whether `pair_out` holds zeros for the pairs that do not touch (false
-    /// from a build to the first sweep, which writes them).
-    #[serde(skip)]
-    pub pair_out_clean: bool,
     /// Whether the list is built on the rank's threads (the caller runs the
     /// build inside the rank's pool); results do not depend on it.
     #[serde(skip)]
@@ -820,11 +819,10 @@ impl NeighborList {
             Some(order) => self.incident_by_rows(p, &order, threaded),
             None => self.incident_sorted(p, threaded),
         }
-        // a new list starts with no pair touching; the results' zeros are
-        // written by the first sweep as it passes (no pass of its own)
-        fill_with(&mut self.pair_touch, self.pairs.len(), false, threaded);
-        sized(&mut self.pair_out, self.pairs.len(), PairOut::default());
-        self.pair_out_clean = false;
+        // a new list starts with no pair touching
+        fill_with(&mut self.pair_slot, self.pairs.len(), crate::forces::zero_slot(&self.pairs), threaded);
+        sized(&mut self.pair_out, self.pairs.len() + 1, PairOut::default());
+        self.pair_out[self.pairs.len()] = PairOut::default();
     }
 
     /// `incident` from the rows in order of their particles' ids (`order`:

@@ -709,10 +709,12 @@ impl Simulation {
         // (the period where the particles carry images, as `Shapes::new` takes it)
         let period = (!p.image.is_empty()).then_some(self.set.sweep.period);
         let n_own = p.owned();
+        let zero = crate::forces::zero_slot(&nl.pairs) as usize;
         let mut out = Vec::new();
         for (k, &(a, b)) in nl.pairs.iter().enumerate() {
             let (a, b) = (a as usize, b as usize);
-            if a >= n_own || !nl.pair_touch.get(k).copied().unwrap_or(false) {
+            let slot = nl.pair_slot.get(k).map_or(zero, |&x| x as usize);
+            if a >= n_own || slot >= zero {
                 continue;
             }
             let d = crate::contact::geometry::pair_offset(p, a, b, period.as_ref());
@@ -721,7 +723,7 @@ impl Simulation {
                 a: p.id[a],
                 partner: p.id[b],
                 wall: false,
-                force: nl.pair_out[k].force,
+                force: nl.pair_out[slot].force,
                 point: p.pos[a] - d * share,
                 centre: p.pos[a],
                 branch: d,
