@@ -16,7 +16,8 @@ runs alternated in one session (compare/ab.py); `python -m compare benchmarks pa
 from the recorded results (compare/benchpage.py); `python -m compare validation [--out docs/validation.md]
 [--compare-dir out/compare] [--cargo-profile ci|release] [--no-cargo]`: docs/validation.md, every closed-form
 test (run by cargo) and every comparison in the compare dir with its current figure (compare/validation.py);
-`python -m compare schema [--check]`: docs/case.schema.json (`talus schema`) and the case-file reference
+`python -m compare bond [--levels K,...]`: the cohesive pile's angle of repose rising with the Bond
+number, against LIGGGHTS as ensembles (compare/bond.py); `python -m compare schema [--check]`: docs/case.schema.json (`talus schema`) and the case-file reference
 docs/guide/case-reference.md made from it (compare/schema_page.py); `python -m compare pyref [--check]`:
 docs/guide/python-reference.md from the module's stub (compare/pyref.py).
 Runs the engines, computes every figure from their raw time series by one piece of
@@ -159,6 +160,9 @@ def main(argv=None):
     if argv[:1] == ["validation"]:  # docs/validation.md from the tests and comparisons: compare/validation.py
         from . import validation
         return validation.main(argv[1:])
+    if argv[:1] == ["bond"]:  # the cohesive pile's angle of repose against the Bond number: compare/bond.py
+        from . import bond
+        return bond.main(argv[1:])
     if argv[:1] == ["regress"]:  # talus against its golden file: compare/regress.py
         from . import regress
         return regress.main(argv[1:])

@@ -59,6 +59,11 @@ for c in SC-rolling SC-rolling-epsd2 SC-cohesive-sjkr SC-cohesive-sjkr2 squeeze 
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   passed "compare cases/$c.toml (talus,liggghts, exported): within tolerance"
 done
+# cohesion: the pile's angle of repose rising with the Bond number (sjkr at three energy densities),
+# talus against LIGGGHTS as ensembles of 4 replicas at each level (compare/bond.py, about 2.5 min)
+python3 -m compare bond --out "$out/bond" > "$out-bond.log" 2>&1 \
+  || { cat "$out-bond.log"; echo "compare bond: FAILED"; exit 1; }
+passed "compare bond (the cohesive pile against LIGGGHTS): the angle rises with the Bond number, the engines agree"
 # LAMMPS 29Sep2021 (pair_style granular) as the third reference: Hertz-Mindlin single collisions, and
 # the laws that pull, DMT and JKR (LIGGGHTS 3.8 has neither; YADE's Mindlin DMT damps and caps its own way)
 for c in SC-wall SC-pair SC-oblique SC-cohesive-dmt SC-cohesive-jkr SC-mixed-laws; do
