@@ -54,7 +54,7 @@ done
 # rolling resistance (cdt, epsd2), cohesion (sjkr, sjkr2) and the poured heap: LIGGGHTS only (YADE 2023
 # has no such laws); the rotating drum against LIGGGHTS (YADE's 5 min run is in --full); the squeeze,
 # a chaotic case compared by ensembles (4 replicas per engine, compare/ensemble.py)
-for c in SC-rolling SC-rolling-epsd2 SC-cohesive-sjkr SC-cohesive-sjkr2 squeeze pile-rolling pile-epsd2 pour drum; do
+for c in SC-rolling SC-rolling-epsd2 SC-cohesive-sjkr SC-cohesive-sjkr2 SC-cohesive-pairs squeeze pile-rolling pile-epsd2 pour drum; do
   python3 -m compare "cases/$c.toml" --engines talus,liggghts --out "$out/case-$c" > "$out-case-$c.log" 2>&1 \
     || { cat "$out-case-$c.log"; echo "compare cases/$c.toml: FAILED"; exit 1; }
   passed "compare cases/$c.toml (talus,liggghts, exported): within tolerance"

@@ -347,3 +347,28 @@ def test_jkr_collisions_agree_with_lammps_to_1e_6(tmp_path):
     assert r.returncode == 0 and "30 of 30 checks within tolerance" in r.stdout, r.stdout + r.stderr
     deck = (tmp_path / "c" / "lammps" / "in.talus").read_text()
     assert "pair_coeff      1 1 jkr " in deck and "tangential mindlin NULL 1.0" in deck and "damping tsuji" in deck, deck
+
+
+def test_liggghts_takes_a_pair_table_of_cohesion_only_and_refuses_any_other_key_of_a_pair(tmp_path):
+    """LIGGGHTS holds per pair of atom types only the cohesion's energy density: a table that
+    sets only `cohesion` exports (each pair's K, the section's elsewhere); a pair's `model` or a
+    second cohesion model is refused by name."""
+    def export(text, name):
+        p = tmp_path / f"{name}.toml"
+        p.write_text(text)
+        return subprocess.run([str(engines.TALUS), "export", str(p), "--to", "liggghts", "--out", str(tmp_path / name)],
+                              capture_output=True, text=True)
+    text = (CASES / "SC-cohesive-pairs.toml").read_text()
+    r = export(text, "ok")
+    assert r.returncode == 0, r.stderr
+    deck = (tmp_path / "ok" / "in.talus").read_text()
+    line = next(l for l in deck.splitlines() if "cohesionEnergyDensity" in l)
+    # materials grain, glue, steel: grain-glue 1e5, grain-steel 5e3, every other pair the section's 3e4
+    k = [float(x) for x in line.split()[7:]]
+    assert k == [3e4, 1e5, 5e3, 1e5, 3e4, 3e4, 5e3, 3e4, 3e4]
+    assert "cohesion sjkr" in deck.split("pair_style")[1].splitlines()[0]
+    r = export(text.replace('materials = ["grain", "steel"]\n', 'materials = ["grain", "steel"]\nmodel = "hertz"\n'), "model")
+    assert r.returncode != 0 and 'contact.pair[1].model' in r.stderr and "lammps" in r.stderr, r.stderr
+    r = export(text.replace('energy_density = 5.0e3', 'energy_density = 5.0e3').replace(
+        'materials = ["grain", "steel"]\ncohesion = { model = "sjkr"', 'materials = ["grain", "steel"]\ncohesion = { model = "sjkr2"'), "two")
+    assert r.returncode != 0 and 'contact.pair[1].cohesion.model = "sjkr2"' in r.stderr, r.stderr

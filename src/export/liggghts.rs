@@ -162,9 +162,22 @@ enum Law {
 /// model decided here: a new one does not compile until it is).
 fn law(case: &Case) -> Result<Law, TalusError> {
     let c = &case.contact;
-    if let Some(pr) = c.pairs.first() {
-        return Err(refuse(case, &format!("contact.pair (materials {:?})", pr.materials), "LIGGGHTS 3.8's pair style takes one contact model for every pair of atom types; compare laws per pair of materials against LAMMPS (--engines talus,lammps)"));
+    // per pair of atom types LIGGGHTS holds only the cohesion's energy density
+    // (cohesionEnergyDensity); every other key of a pair is refused by name
+    for (k, pr) in c.pairs.iter().enumerate() {
+        let crate::case::ContactPair { materials, model, damping, characteristic_velocity, stiffness, surface_energy, cohesion: _ } = pr;
+        let set = [
+            ("model", model.is_some()),
+            ("damping", damping.is_some()),
+            ("characteristic_velocity", characteristic_velocity.is_some()),
+            ("stiffness", stiffness.is_some()),
+            ("surface_energy", surface_energy.is_some()),
+        ];
+        if let Some((key, _)) = set.iter().find(|x| x.1) {
+            return Err(refuse(case, &format!("contact.pair[{k}].{key} (materials {materials:?})"), "LIGGGHTS 3.8's pair style takes one contact model for every pair of atom types, and per pair of types only the cohesion's energy density; compare laws per pair of materials against LAMMPS (--engines talus,lammps)"));
+        }
     }
+    cohesion_model(case)?;
     match c.model {
         ModelName::Hertz => Ok(Law::Hertz),
         ModelName::Hooke => match (c.stiffness, c.characteristic_velocity) {
@@ -177,6 +190,29 @@ fn law(case: &Case) -> Result<Law, TalusError> {
             "LIGGGHTS 3.8 has no DMT or JKR normal model; its cohesion is `cohesion sjkr` / `sjkr2` (contact.cohesion with model hertz or hooke); compare dmt and jkr against LAMMPS (--engines talus,lammps)",
         )),
     }
+}
+
+/// The cohesion model of the pair style and of every wall fix. LIGGGHTS writes
+/// one, so every pair of materials' cohesion (its `[[contact.pair]]`'s, else the
+/// section's) must name the same; their energy densities go per pair of atom
+/// types (zero where a pair has none).
+fn cohesion_model(case: &Case) -> Result<Option<crate::contact::cohesion::CohesionModel>, TalusError> {
+    let mut model = case.contact.cohesion.map(|c| c.model);
+    for (k, pr) in case.contact.pairs.iter().enumerate() {
+        if let Some(c) = pr.cohesion {
+            match model {
+                Some(m) if m != c.model => {
+                    return Err(refuse(
+                        case,
+                        &format!("contact.pair[{k}].cohesion.model = \"{}\"", c.model.name()),
+                        &format!("LIGGGHTS 3.8 takes one cohesion model for every pair of atom types, and another pair or the section names \"{}\"", m.name()),
+                    ))
+                }
+                _ => model = Some(c.model),
+            }
+        }
+    }
+    Ok(model)
 }
 
 /// Refuse what LIGGGHTS 3.8 cannot run, naming the key; the law as it is written.
@@ -513,8 +549,8 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
                 Kind::Mesh
             }
             Shape::Disc(_) => {
-                if let Some(c) = case.contact.cohesion {
-                    return Err(refuse(case, &format!("contact.cohesion.model = \"{}\" with the ball wall {}", c.model.name(), ws.name), "a ball wall is an atom in the LIGGGHTS deck, whose cohesion takes the two-sphere area; talus's walls take the flat one"));
+                if let Some(c) = cohesion_model(case)? {
+                    return Err(refuse(case, &format!("contact.cohesion.model = \"{}\" with the ball wall {}", c.name(), ws.name), "a ball wall is an atom in the LIGGGHTS deck, whose cohesion takes the two-sphere area; talus's walls take the flat one"));
                 }
                 for (mo, a) in motions.iter().zip(&at) {
                     if mo.rotation.is_some() {
@@ -561,8 +597,8 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
         None => model.to_string(),
     };
     // cohesion: LIGGGHTS's own sjkr / sjkr2, the same on the pair style and every wall fix
-    let model = match case.contact.cohesion {
-        Some(c) => format!("{model} cohesion {}", c.model.name()),
+    let model = match cohesion_model(case)? {
+        Some(c) => format!("{model} cohesion {}", c.name()),
         None => model,
     };
     let model = model.as_str();
@@ -632,8 +668,9 @@ pub fn export(case: &Case, out: &Path, inserted: &[super::InsertedRow]) -> Resul
     let mixed = |a: usize, b: usize| mix(&case.materials[a], &case.materials[b], Mixing::Liggghts);
     let _ = writeln!(w, "fix m3 all property/global coefficientRestitution peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).restitution));
     let _ = writeln!(w, "fix m4 all property/global coefficientFriction peratomtypepair {nmat} {}", pair(&|a, b| mixed(a, b).friction));
-    if let Some(c) = case.contact.cohesion {
-        let _ = writeln!(w, "fix m7 all property/global cohesionEnergyDensity peratomtypepair {nmat} {}", pair(&|_, _| c.energy_density));
+    if cohesion_model(case)?.is_some() {
+        let k = |a: usize, b: usize| case.contact.for_materials(&case.materials[a].name, &case.materials[b].name).cohesion.map_or(0.0, |c| c.energy_density);
+        let _ = writeln!(w, "fix m7 all property/global cohesionEnergyDensity peratomtypepair {nmat} {}", pair(&k));
     }
     if case.contact.rolling.is_some() {
         notes.push("rolling resistance: a primitive wall's torque column is the moment of the contact forces only (talus's also takes the rolling torques' reaction)".into());
